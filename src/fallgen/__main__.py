@@ -1,0 +1,3 @@
+from fallgen.cli import main
+
+main()

@@ -1,0 +1,235 @@
+"""The ``fallgen`` command line: a thin layer over the library.
+
+Every command parses its arguments, calls a library function, shows progress or a table, and
+maps bad input to a one-line ``error: FILE: FIELD: MESSAGE`` on stderr with exit code 2.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Annotated, Optional
+
+import click
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from fallgen import __version__
+from fallgen.errors import InputError
+
+app = typer.Typer(
+    name="fallgen",
+    help="Generate the Fallen Objects audio-visual dataset, offline and deterministically.",
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    add_completion=False,
+)
+rooms_app = typer.Typer(help="Room variants: list, check, draw, export to MJCF.",
+                        no_args_is_help=True)
+objects_app = typer.Typer(help="Object categories: list, check.", no_args_is_help=True)
+materials_app = typer.Typer(help="Object and surface materials.", no_args_is_help=True)
+app.add_typer(rooms_app, name="rooms")
+app.add_typer(objects_app, name="objects")
+app.add_typer(materials_app, name="materials")
+
+console = Console()
+
+DataDir = Annotated[
+    Optional[Path],
+    typer.Option("--data-dir", help="Directory with materials/, objects/, rooms/ "
+                 "(default: $FALLGEN_DATA, else the built-in data).", show_default=False),
+]
+
+
+def _version(value: bool) -> None:
+    if value:
+        import mujoco
+
+        console.print(f"fallgen {__version__} (mujoco {mujoco.__version__})")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: Annotated[bool, typer.Option("--version", callback=_version, is_eager=True,
+                                          help="Show the version and exit.")] = False,
+) -> None:
+    """Generate the Fallen Objects audio-visual dataset, offline and deterministically."""
+
+
+def _world(data_dir: Path | None):
+    from fallgen.world.library import load_world
+
+    return load_world(data_dir)
+
+
+def _variants(world, pattern: str):
+    vs = world.variants(pattern)
+    if not vs:
+        raise InputError("<command line>", "ROOM", f"no room variant matches {pattern!r} "
+                         f"(try `fallgen rooms list`)")
+    return vs
+
+
+# --- rooms --------------------------------------------------------------------------------------
+
+@rooms_app.command("list")
+def rooms_list(
+    pattern: Annotated[str, typer.Argument(help="Glob over variant or room ids.")] = "*",
+    data_dir: DataDir = None,
+) -> None:
+    """List room variants: id, kind, size, furniture and zones."""
+    world = _world(data_dir)
+    t = Table(title=f"room variants ({world.root})")
+    for col in ("id", "kind", "size (m)", "furniture", "zones", "floor", "walls"):
+        t.add_column(col)
+    vs = _variants(world, pattern)
+    for v in vs:
+        t.add_row(v.id, v.kind, " x ".join(f"{x:g}" for x in v.size_m), str(len(v.furniture)),
+                  str(len(v.zones)), v.surfaces["floor"].name, v.surfaces["north"].name)
+    console.print(t)
+    kinds = {k: sum(v.kind == k for v in vs) for k in sorted({v.kind for v in vs})}
+    console.print(f"{len(vs)} variants: " + ", ".join(f"{n} {k}" for k, n in kinds.items()))
+
+
+@rooms_app.command("check")
+def rooms_check(
+    pattern: Annotated[str, typer.Argument(help="Glob over variant or room ids.")] = "*",
+    data_dir: DataDir = None,
+) -> None:
+    """Check layouts geometrically (intersections, zone supports, navigability); exit 1 on problems."""
+    from fallgen.world.validate import check_variant
+
+    world = _world(data_dir)
+    bad = 0
+    for v in _variants(world, pattern):
+        problems = check_variant(v)
+        for p in problems:
+            console.print(f"[red]{v.id}[/red]: {p}", highlight=False)
+        bad += bool(problems)
+    if bad:
+        console.print(f"{bad} variant(s) with problems")
+        raise typer.Exit(1)
+    console.print("all variants ok")
+
+
+@rooms_app.command("show")
+def rooms_show(
+    room: Annotated[str, typer.Argument(help="Variant id (or a glob; then -o is a directory).")],
+    out: Annotated[Path, typer.Option("-o", "--out", help="PNG file, or directory for a glob.")],
+    data_dir: DataDir = None,
+) -> None:
+    """Draw a top-down plan of a variant with furniture and numbered fall zones."""
+    from fallgen.world.preview import draw_variant, write_png
+
+    world = _world(data_dir)
+    vs = _variants(world, room)
+    if len(vs) == 1 and out.suffix.lower() == ".png":
+        targets = [(vs[0], out)]
+    elif out.suffix:
+        raise InputError("<command line>", "--out", f"{room!r} matches {len(vs)} variants: "
+                         "give a directory, not a file")
+    else:
+        targets = [(v, out / f"{v.id}.png") for v in vs]
+    images = [(draw_variant(v), p) for v, p in targets]  # draw everything before writing
+    for img, p in images:
+        write_png(img, p)
+        console.print(f"wrote {p}")
+
+
+@rooms_app.command("export")
+def rooms_export(
+    room: Annotated[str, typer.Argument(help="Variant id, e.g. kitchen_galley-l1-m1.")],
+    out: Annotated[Path, typer.Option("-o", "--out", help="MJCF file to write.")],
+    data_dir: DataDir = None,
+) -> None:
+    """Write a variant as MJCF that MuJoCo's viewer loads (python -m mujoco.viewer --mjcf=FILE)."""
+    from fallgen.atomic import write_text
+    from fallgen.world.scene import to_mjcf
+
+    world = _world(data_dir)
+    vs = _variants(world, room)
+    if len(vs) != 1:
+        raise InputError("<command line>", "ROOM", f"{room!r} matches {len(vs)} variants; "
+                         "export takes exactly one")
+    write_text(out, to_mjcf(vs[0], world.materials))
+    console.print(f"wrote {out}")
+
+
+# --- objects ------------------------------------------------------------------------------------
+
+@objects_app.command("list")
+def objects_list(
+    role: Annotated[Optional[str], typer.Option(help="target or occluder")] = None,
+    data_dir: DataDir = None,
+) -> None:
+    """List object categories with their variants, materials, sizes and masses."""
+    world = _world(data_dir)
+    lib = world.categories
+    t = Table(title="object categories")
+    for col in ("category", "role", "variant", "materials", "size (mm)", "mass (g)"):
+        t.add_column(col)
+    for cat in lib:
+        if role and cat.role != role:
+            continue
+        for v in cat.variants:
+            g = lib.geometry(cat.id, v.name)
+            masses = [lib.instance(cat.id, v.name, m).mass_kg * 1000 for m in v.materials]
+            size = " x ".join(f"{x * 1000:.0f}" for x in sorted(g.extents, reverse=True))
+            mass = f"{min(masses):.1f}" if len(masses) == 1 else \
+                f"{min(masses):.1f}-{max(masses):.1f}"
+            t.add_row(cat.id, cat.role, v.name, ", ".join(v.materials), size, mass)
+    console.print(t)
+    console.print(f"{len(lib.ids('target'))} target categories, "
+                  f"{len(lib.ids('occluder'))} occluders")
+
+
+# --- materials ----------------------------------------------------------------------------------
+
+@materials_app.command("list")
+def materials_list(data_dir: DataDir = None) -> None:
+    """List object materials (physical and modal constants) and surface materials (absorption)."""
+    from fallgen.world.materials import OCTAVE_BANDS_HZ, load_materials
+    from fallgen.paths import data_root
+
+    mats = load_materials(data_root(data_dir) / "materials")
+    t = Table(title="object materials")
+    for col in ("name", "audio", "rho kg/m3", "E GPa", "nu", "eta", "friction", "solref"):
+        t.add_column(col)
+    for m in mats.objects.values():
+        t.add_row(m.name, m.audio, f"{m.density_kg_m3:g}", f"{m.youngs_modulus_pa / 1e9:.3g}",
+                  f"{m.poisson_ratio:g}", f"{m.loss_factor:g}", f"{m.friction_sliding:g}",
+                  f"{m.contact_timeconst_s:g}/{m.contact_dampratio:g}")
+    console.print(t)
+    t = Table(title="surface materials: absorption per octave band")
+    for col in ("name", *(f"{int(b)}" for b in OCTAVE_BANDS_HZ), "sounds like", "uses"):
+        t.add_column(col)
+    for s in mats.surfaces.values():
+        t.add_row(s.name, *(f"{a:.2f}" for a in s.absorption), s.impact_material,
+                  ",".join(s.uses))
+    console.print(t)
+
+
+# --- entry point --------------------------------------------------------------------------------
+
+def main(argv: list[str] | None = None) -> None:
+    """Console-script entry point: one-line errors and exit code 2 for bad input."""
+    try:
+        rv = app(args=argv, prog_name="fallgen", standalone_mode=False)
+    except InputError as e:
+        print(f"error: {e}", file=sys.stderr)
+        sys.exit(2)
+    except click.exceptions.Exit as e:
+        sys.exit(e.exit_code)
+    except click.ClickException as e:
+        e.show()
+        sys.exit(e.exit_code)
+    except click.exceptions.Abort:
+        print("aborted", file=sys.stderr)
+        sys.exit(130)
+    sys.exit(rv if isinstance(rv, int) else 0)
+
+
+if __name__ == "__main__":
+    main()

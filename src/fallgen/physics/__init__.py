@@ -1,0 +1,1 @@
+"""Physics: dropping objects in room scenes, detecting settling, recording contacts."""

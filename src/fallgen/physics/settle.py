@@ -1,0 +1,82 @@
+"""Step a MuJoCo scene until one free body settles, watching for instabilities.
+
+Settled means: linear speed below ``lin_tol`` and angular speed below ``ang_tol`` continuously
+for ``hold_s``. MuJoCo silently resets a simulation whose accelerations go bad, so the warning
+counters (``mjWARN_BADQACC`` and friends) are checked as well as the state staying finite.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+
+@dataclass(frozen=True)
+class SettleCriteria:
+    lin_tol_mps: float = 0.01
+    ang_tol_radps: float = 0.1
+    hold_s: float = 0.25
+    timeout_s: float = 6.0
+
+
+@dataclass(frozen=True)
+class SettleResult:
+    settled: bool
+    time_s: float  # when the body first met the criteria for the hold time (or the timeout)
+    pos: np.ndarray  # (3,) final body position
+    quat: np.ndarray  # (4,) final body orientation (w, x, y, z)
+    max_speed_mps: float  # largest linear speed seen
+    min_z_m: float  # lowest body-origin height seen
+    unstable: bool  # NaN/inf state or a MuJoCo warning
+    warnings: dict[str, int]
+
+
+_WATCHED = ("mjWARN_BADQACC", "mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_CONTACTFULL",
+            "mjWARN_CNSTRFULL")
+
+
+def mujoco_warnings(data: mujoco.MjData) -> dict[str, int]:
+    """Counts of the MuJoCo warnings that mean a simulation cannot be trusted."""
+    out = {}
+    for name in _WATCHED:
+        n = int(data.warning[int(getattr(mujoco.mjtWarning, name))].number)
+        if n:
+            out[name] = n
+    return out
+
+
+def simulate_until_settled(model: mujoco.MjModel, data: mujoco.MjData, body_id: int,
+                           criteria: SettleCriteria = SettleCriteria()) -> SettleResult:
+    """Step ``data`` until body ``body_id`` (with a free joint) settles or times out."""
+    jnt = model.body_jntadr[body_id]
+    qadr, vadr = model.jnt_qposadr[jnt], model.jnt_dofadr[jnt]
+    dt = model.opt.timestep
+    hold_steps = max(1, int(round(criteria.hold_s / dt)))
+    max_steps = int(round(criteria.timeout_s / dt))
+    calm, settled_at = 0, None
+    max_speed, min_z, unstable = 0.0, np.inf, False
+    for step in range(max_steps):
+        mujoco.mj_step(model, data)
+        v = data.qvel[vadr:vadr + 6]
+        z = data.qpos[qadr + 2]
+        if not (np.isfinite(v).all() and np.isfinite(z)) or mujoco_warnings(data):
+            unstable = True
+            break
+        lin, ang = float(np.linalg.norm(v[:3])), float(np.linalg.norm(v[3:]))
+        max_speed, min_z = max(max_speed, lin), min(min_z, float(z))
+        calm = calm + 1 if (lin < criteria.lin_tol_mps and ang < criteria.ang_tol_radps) else 0
+        if calm >= hold_steps:
+            settled_at = (step + 1 - hold_steps) * dt
+            break
+    return SettleResult(
+        settled=settled_at is not None and not unstable,
+        time_s=settled_at if settled_at is not None else data.time,
+        pos=data.qpos[qadr:qadr + 3].copy(),
+        quat=data.qpos[qadr + 3:qadr + 7].copy(),
+        max_speed_mps=max_speed,
+        min_z_m=min_z,
+        unstable=unstable,
+        warnings=mujoco_warnings(data),
+    )

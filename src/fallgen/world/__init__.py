@@ -1,0 +1,1 @@
+"""The world: materials, object categories, rooms and the MuJoCo scenes built from them."""

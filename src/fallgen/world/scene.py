@@ -1,0 +1,259 @@
+"""Room variant (+ dropped object, distractors, occluders, a static agent) -> MuJoCo model.
+
+Built through ``mujoco.MjSpec`` so nothing goes through XML on the hot path; ``to_mjcf`` writes
+the same model as MJCF for MuJoCo's own viewer. Contact settings follow what settled small
+objects cleanly in our measurements (``shared/design/physics-and-audio.md``): 2 ms steps,
+elliptic friction cones, impratio 10, condim 6 (torsional and rolling friction) on loose
+objects, zero margin, per-material friction and solref.
+
+Naming, which later stages rely on to label contacts and segmentation:
+``floor``, ``ceiling``, ``wall_<side>``; ``<furniture id>/<part>``; a loose object's body is
+``obj:<name>`` with a visual geom ``obj:<name>/visual`` (group 1, no collisions) and convex
+collision geoms ``obj:<name>/cNN`` (group 3, hidden); the agent is body ``agent``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from fallgen.world.materials import MaterialLibrary
+from fallgen.world.objects import ObjectInstance
+from fallgen.world.rooms import RoomVariant
+
+WALL_THICKNESS_M = 0.2
+VISUAL_GROUP, COLLISION_GROUP = 1, 3
+
+
+@dataclass(frozen=True)
+class PhysicsSettings:
+    timestep_s: float = 0.002
+    impratio: float = 10.0
+    elliptic_cone: bool = True
+    object_condim: int = 6
+    integrator: str = "euler"
+
+    def __post_init__(self) -> None:
+        if not 0 < self.timestep_s <= 0.01:
+            raise ValueError(f"timestep_s {self.timestep_s} out of range (0, 0.01]")
+        if self.object_condim not in (1, 3, 4, 6):
+            raise ValueError("object_condim must be 1, 3, 4 or 6")
+
+
+@dataclass(frozen=True)
+class PlacedObject:
+    """An object in the scene: ``free`` ones fall, the others are fixed (frozen distractors,
+    placed occluders)."""
+
+    name: str
+    instance: ObjectInstance
+    pos: tuple[float, float, float]
+    quat: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)
+    free: bool = True
+
+
+@dataclass(frozen=True)
+class AgentBody:
+    """The robot as a static vertical cylinder (static, so replays stay bit-identical)."""
+
+    x: float
+    y: float
+    yaw: float = 0.0
+    radius_m: float = 0.2
+    height_m: float = 1.2
+
+
+@dataclass
+class Scene:
+    """A compiled scene and what each geom is (owner, material) for labelling contacts."""
+
+    model: mujoco.MjModel
+    spec: mujoco.MjSpec
+    variant: RoomVariant
+    geom_owner: tuple[str, ...]  # "floor", "ceiling", "wall_<side>", "<furniture id>", "obj:<name>", "agent"
+    geom_material: tuple[str, ...]  # object material reference a hit on the geom sounds like
+    object_body: dict[str, int] = field(default_factory=dict)  # object name -> body id
+
+    def data(self) -> mujoco.MjData:
+        return mujoco.MjData(self.model)
+
+
+def _rgba(c) -> list[float]:
+    return [float(x) for x in c]
+
+
+def _set_contact(g, mats: MaterialLibrary, material: str, friction_sliding: float | None = None):
+    m = mats.object(material)
+    fr = list(m.friction)
+    if friction_sliding is not None:
+        fr[0] = friction_sliding
+    g.friction = fr
+    g.solref = list(m.solref)
+    g.margin = 0.0
+
+
+def build_spec(
+    variant: RoomVariant,
+    mats: MaterialLibrary,
+    objects: Sequence[PlacedObject] = (),
+    agent: AgentBody | None = None,
+    settings: PhysicsSettings = PhysicsSettings(),
+) -> tuple[mujoco.MjSpec, dict[str, tuple[str, str]]]:
+    """The scene's MjSpec and, per geom name, its (owner, material)."""
+    spec = mujoco.MjSpec()
+    spec.modelname = variant.id
+    spec.compiler.degree = False
+    opt = spec.option
+    opt.timestep = settings.timestep_s
+    opt.impratio = settings.impratio
+    opt.cone = mujoco.mjtCone.mjCONE_ELLIPTIC if settings.elliptic_cone else mujoco.mjtCone.mjCONE_PYRAMIDAL
+    opt.integrator = {
+        "euler": mujoco.mjtIntegrator.mjINT_EULER,
+        "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
+        "rk4": mujoco.mjtIntegrator.mjINT_RK4,
+    }[settings.integrator]
+    spec.visual.headlight.ambient = [0.35, 0.35, 0.35]
+    spec.visual.headlight.diffuse = [0.3, 0.3, 0.3]
+    spec.stat.extent = float(max(variant.size_m))
+    spec.stat.center = [variant.size_m[0] / 2, variant.size_m[1] / 2, variant.size_m[2] / 2]
+
+    info: dict[str, tuple[str, str]] = {}
+    wb = spec.worldbody
+    lx, ly, h = variant.size_m
+    t = WALL_THICKNESS_M
+
+    def shell(name: str, surface_key: str, center, half) -> None:
+        s = variant.surfaces[surface_key]
+        g = wb.add_geom()
+        g.name, g.type = name, mujoco.mjtGeom.mjGEOM_BOX
+        g.pos, g.size = list(center), list(half)
+        g.rgba = _rgba(s.rgba)
+        _set_contact(g, mats, s.impact_material, s.friction_sliding)
+        info[name] = (name, s.impact_material)
+
+    shell("floor", "floor", (lx / 2, ly / 2, -t / 2), (lx / 2 + t, ly / 2 + t, t / 2))
+    shell("ceiling", "ceiling", (lx / 2, ly / 2, h + t / 2), (lx / 2 + t, ly / 2 + t, t / 2))
+    shell("wall_south", "south", (lx / 2, -t / 2, h / 2), (lx / 2 + t, t / 2, h / 2))
+    shell("wall_north", "north", (lx / 2, ly + t / 2, h / 2), (lx / 2 + t, t / 2, h / 2))
+    shell("wall_west", "west", (-t / 2, ly / 2, h / 2), (t / 2, ly / 2, h / 2))
+    shell("wall_east", "east", (lx + t / 2, ly / 2, h / 2), (t / 2, ly / 2, h / 2))
+
+    for i, (x, y) in enumerate(((lx / 3, ly / 3), (2 * lx / 3, 2 * ly / 3))):
+        light = wb.add_light()
+        light.name = f"ceiling_light{i}"
+        light.pos = [x, y, h - 0.05]
+        light.dir = [0.0, 0.0, -1.0]
+        light.diffuse = [0.45, 0.45, 0.43]
+        light.castshadow = False
+
+    for item, part in variant.parts():
+        g = wb.add_geom()
+        g.name = f"{item.id}/{part.name}"
+        b = part.box
+        if part.shape == "cylinder":
+            g.type = mujoco.mjtGeom.mjGEOM_CYLINDER
+            g.size = [b.half[0], b.half[2], 0.0]
+        else:
+            g.type = mujoco.mjtGeom.mjGEOM_BOX
+            g.size = list(b.half)
+        g.pos = list(b.center)
+        g.quat = list(b.quat)
+        g.rgba = _rgba(part.rgba or mats.object(part.material).rgba)
+        _set_contact(g, mats, part.material)
+        info[g.name] = (item.id, part.material)
+
+    for obj in objects:
+        _add_object(spec, mats, obj, settings, info)
+
+    if agent is not None:
+        body = wb.add_body()
+        body.name = "agent"
+        body.pos = [agent.x, agent.y, 0.0]
+        body.quat = [np.cos(agent.yaw / 2), 0.0, 0.0, np.sin(agent.yaw / 2)]
+        g = body.add_geom()
+        g.name = "agent/body"
+        g.type = mujoco.mjtGeom.mjGEOM_CYLINDER
+        g.size = [agent.radius_m, agent.height_m / 2, 0.0]
+        g.pos = [0.0, 0.0, agent.height_m / 2 + 0.005]
+        g.rgba = [0.2, 0.2, 0.22, 1.0]
+        _set_contact(g, mats, "plastic_hard")
+        info[g.name] = ("agent", "plastic_hard")
+    return spec, info
+
+
+def _add_object(spec: mujoco.MjSpec, mats: MaterialLibrary, obj: PlacedObject,
+                settings: PhysicsSettings, info: dict[str, tuple[str, str]]) -> None:
+    inst = obj.instance
+    s = inst.scale
+    geo = inst.geometry
+    prefix = f"obj:{obj.name}"
+    body = spec.worldbody.add_body()
+    body.name = prefix
+    body.pos = list(obj.pos)
+    body.quat = list(obj.quat)
+    if obj.free:
+        j = body.add_freejoint()
+        j.name = prefix
+    body.explicitinertial = True
+    body.mass = inst.mass_kg
+    body.ipos = list(inst.com)
+    body.fullinertia = [*np.diag(inst.inertia), inst.inertia[0, 1], inst.inertia[0, 2],
+                        inst.inertia[1, 2]]
+    body.inertia = [0.0, 0.0, 0.0]
+    vis = spec.add_mesh()
+    vis.name = f"{prefix}/visual"
+    vis.uservert = (geo.vertices * s).ravel().tolist()
+    vis.userface = geo.faces.ravel().tolist()
+    vis.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
+    g = body.add_geom()
+    g.name = f"{prefix}/visual"
+    g.type = mujoco.mjtGeom.mjGEOM_MESH
+    g.meshname = vis.name
+    g.contype = g.conaffinity = 0
+    g.group = VISUAL_GROUP
+    g.rgba = _rgba(inst.material.rgba)
+    info[g.name] = (prefix, inst.material.name)
+    for k, piece in enumerate(geo.collision):
+        m = spec.add_mesh()
+        m.name = f"{prefix}/c{k:02d}"
+        m.uservert = (piece * s).ravel().tolist()
+        m.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_CONVEX
+        c = body.add_geom()
+        c.name = m.name
+        c.type = mujoco.mjtGeom.mjGEOM_MESH
+        c.meshname = m.name
+        c.group = COLLISION_GROUP
+        c.condim = settings.object_condim
+        c.rgba = [0.9, 0.2, 0.2, 0.4]
+        _set_contact(c, mats, inst.material.name)
+        info[c.name] = (prefix, inst.material.name)
+
+
+def build_scene(
+    variant: RoomVariant,
+    mats: MaterialLibrary,
+    objects: Sequence[PlacedObject] = (),
+    agent: AgentBody | None = None,
+    settings: PhysicsSettings = PhysicsSettings(),
+) -> Scene:
+    """Compile a variant (plus objects and an optional static agent) into a MuJoCo model."""
+    spec, info = build_spec(variant, mats, objects, agent, settings)
+    model = spec.compile()
+    owners, materials = [], []
+    for gid in range(model.ngeom):
+        owner, material = info[model.geom(gid).name]
+        owners.append(owner)
+        materials.append(material)
+    bodies = {o.name: model.body(f"obj:{o.name}").id for o in objects}
+    return Scene(model, spec, variant, tuple(owners), tuple(materials), bodies)
+
+
+def to_mjcf(variant: RoomVariant, mats: MaterialLibrary, objects: Sequence[PlacedObject] = (),
+            agent: AgentBody | None = None) -> str:
+    """MJCF text of the scene, loadable by ``mujoco.MjModel.from_xml_string`` and the viewer."""
+    spec, _ = build_spec(variant, mats, objects, agent)
+    spec.compile()
+    return spec.to_xml()
