@@ -10,7 +10,6 @@ import sys
 from pathlib import Path
 from typing import Annotated, Optional
 
-import click
 import typer
 from rich.console import Console
 from rich.table import Table
@@ -34,6 +33,8 @@ app.add_typer(objects_app, name="objects")
 app.add_typer(materials_app, name="materials")
 
 console = Console()
+if not console.is_terminal:  # piped or captured: don't squeeze tables into 80 columns
+    console.width = max(console.width, 160)
 
 DataDir = Annotated[
     Optional[Path],
@@ -185,6 +186,26 @@ def objects_list(
                   f"{len(lib.ids('occluder'))} occluders")
 
 
+@objects_app.command("show")
+def objects_show(
+    out: Annotated[Path, typer.Option("-o", "--out", help="PNG file to write.")],
+    category: Annotated[Optional[list[str]], typer.Argument(help="Categories (default: all).")]
+    = None,
+    cols: Annotated[int, typer.Option(min=1, max=20, help="Tiles per row.")] = 8,
+    data_dir: DataDir = None,
+) -> None:
+    """Render a contact sheet of object variants (needs headless GL: MUJOCO_GL=egl or osmesa)."""
+    from fallgen.world.gallery import contact_sheet
+    from fallgen.world.preview import write_png
+
+    world = _world(data_dir)
+    for c in category or []:
+        if c not in world.categories:
+            raise InputError("<command line>", "CATEGORY", f"unknown category {c!r}")
+    write_png(contact_sheet(world.categories, category or None, cols), out)
+    console.print(f"wrote {out}")
+
+
 # --- materials ----------------------------------------------------------------------------------
 
 @materials_app.command("list")
@@ -214,21 +235,16 @@ def materials_list(data_dir: DataDir = None) -> None:
 # --- entry point --------------------------------------------------------------------------------
 
 def main(argv: list[str] | None = None) -> None:
-    """Console-script entry point: one-line errors and exit code 2 for bad input."""
+    """Console-script entry point: one-line errors and exit code 2 for bad input.
+
+    Typer handles usage errors (exit 2) and ``--help`` itself; a data-file problem surfaces as
+    an ``InputError`` from the library and is printed here as one line.
+    """
     try:
-        rv = app(args=argv, prog_name="fallgen", standalone_mode=False)
+        app(args=argv, prog_name="fallgen")
     except InputError as e:
         print(f"error: {e}", file=sys.stderr)
         sys.exit(2)
-    except click.exceptions.Exit as e:
-        sys.exit(e.exit_code)
-    except click.ClickException as e:
-        e.show()
-        sys.exit(e.exit_code)
-    except click.exceptions.Abort:
-        print("aborted", file=sys.stderr)
-        sys.exit(130)
-    sys.exit(rv if isinstance(rv, int) else 0)
 
 
 if __name__ == "__main__":

@@ -147,6 +147,18 @@ class CategoryLibrary:
         return ObjectInstance(cid, variant, self.materials.object(material), float(scale),
                               self.geometry(cid, variant))
 
+    def nominal_size_m(self, cid: str) -> float:
+        """Longest bounding-box edge of a category, averaged over its variants, at scale 1."""
+        cat = self.categories[cid]
+        return float(np.mean([self.geometry(cid, v.name).extents.max() for v in cat.variants]))
+
+    def distractors_for(self, cid: str, ratio: float = 2.0) -> list[str]:
+        """Target categories of similar size to ``cid`` (longest edges within ``ratio``), which
+        make plausible distractors: a golf ball among corks and batteries, not toasters."""
+        size = self.nominal_size_m(cid)
+        return [c for c in self.ids("target") if c != cid
+                and 1 / ratio <= self.nominal_size_m(c) / size <= ratio]
+
     def sample(self, rng: np.random.Generator, cid: str) -> ObjectInstance:
         """Draw a variant, a material (by weight) and a scale for category ``cid``."""
         cat = self.categories[cid]
@@ -234,7 +246,12 @@ def load_categories(directory: str | Path, mats: MaterialLibrary) -> CategoryLib
             if cid in cats:
                 raise f.error(cid, f"category already defined in {cats[cid].file.name}")
             cats[cid] = cat
-    return CategoryLibrary(cats, mats)
+    lib = CategoryLibrary(cats, mats)
+    for cat in cats.values():  # user meshes are checked now, not when a trial first draws them
+        for v in cat.variants:
+            if v.mesh is not None:
+                lib.geometry(cat.id, v.name)
+    return lib
 
 
 # --- geometry -----------------------------------------------------------------------------------

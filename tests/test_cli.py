@@ -1,0 +1,140 @@
+"""The command line as a user meets it: help everywhere, tables, pictures, one-line errors."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from fallgen.cli import main
+
+COMMANDS = [[], ["rooms"], ["rooms", "list"], ["rooms", "check"], ["rooms", "show"],
+            ["rooms", "export"], ["objects"], ["objects", "list"], ["objects", "show"], ["materials"],
+            ["materials", "list"]]
+
+
+def run(capsys, *args: str) -> tuple[int, str, str]:
+    with pytest.raises(SystemExit) as e:
+        main(list(args))
+    out, err = capsys.readouterr()
+    return e.value.code, out, err
+
+
+@pytest.mark.parametrize("cmd", COMMANDS, ids=lambda c: " ".join(c) or "fallgen")
+def test_help_everywhere(capsys, cmd):
+    code, out, _ = run(capsys, *cmd, "--help")
+    assert code == 0
+    assert "Usage" in out
+
+
+def test_version(capsys):
+    code, out, _ = run(capsys, "--version")
+    assert code == 0 and "fallgen" in out and "mujoco 4.0.0" in out
+
+
+def test_rooms_list(capsys):
+    code, out, _ = run(capsys, "rooms", "list")
+    assert code == 0
+    assert "64 variants: 32 kitchen, 32 study" in out
+
+
+def test_rooms_show_and_export(capsys, tmp_path):
+    png = tmp_path / "room.png"
+    code, _, err = run(capsys, "rooms", "show", "kitchen_galley-l1-m1", "-o", str(png))
+    assert code == 0, err
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    xml = tmp_path / "room.xml"
+    code, _, err = run(capsys, "rooms", "export", "kitchen_galley-l1-m1", "-o", str(xml))
+    assert code == 0, err
+    import mujoco
+
+    assert mujoco.MjModel.from_xml_path(str(xml)).ngeom > 20
+    code, _, err = run(capsys, "rooms", "show", "kitchen_galley-*", "-o", str(tmp_path / "all"))
+    assert code == 0, err
+    assert len(list((tmp_path / "all").glob("*.png"))) == 8
+
+
+def test_unknown_room(capsys, tmp_path):
+    out = tmp_path / "x.png"
+    code, _, err = run(capsys, "rooms", "show", "no_such_room", "-o", str(out))
+    assert code == 2
+    assert err.count("\n") == 1 and "no room variant matches" in err
+    assert not out.exists()
+
+
+def test_objects_and_materials_list(capsys):
+    code, out, _ = run(capsys, "objects", "list")
+    assert code == 0 and "31 target categories" in out
+    code, out, _ = run(capsys, "materials", "list")
+    assert code == 0 and "plastic_soft_foam" in out and "8000" in out
+
+
+# --- malformed data files: one line naming file and field, exit code 2, nothing written --------
+
+def _sub(path: Path, old: str, new: str, count: int = 1) -> None:
+    text = path.read_text()
+    assert old in text, f"{old!r} not in {path}"
+    path.write_text(text.replace(old, new, count))
+
+
+def _first_furniture_size(text: str) -> str:
+    return re.search(r"size = \[[^\]]+\]", text.split("furniture = [", 1)[1]).group(0)
+
+
+BREAKAGES = {
+    # name: (file, how to break it, expected file name, expected field fragment)
+    "room missing field": ("rooms/kitchen_galley.toml",
+                           lambda p: _sub(p, 'kind = "kitchen"\n', ""),
+                           "kitchen_galley.toml", "kind"),
+    "room unknown material": ("rooms/kitchen_galley.toml",
+                              lambda p: _sub(p, 'ceiling = "', 'ceiling = "unobtainium_'),
+                              "kitchen_galley.toml", "materials.m1.ceiling"),
+    "zone outside the room": ("rooms/kitchen_galley.toml",
+                              lambda p: p.write_text(re.sub(r"rect = \[[^\]]*\]",
+                                                            "rect = [-3.0, -3.0, -2.0, -2.0]",
+                                                            p.read_text(), count=1)),
+                              "kitchen_galley.toml", "].rect: outside the room"),
+    "negative size": ("rooms/kitchen_galley.toml",
+                      lambda p: _sub(p, _first_furniture_size(p.read_text()),
+                                     "size = [-1.0, 0.6, 0.9]"),
+                      "kitchen_galley.toml", "furniture[0].size"),
+    "material negative density": ("materials/objects.toml",
+                                  lambda p: _sub(p, "density_kg_m3 = 7850", "density_kg_m3 = -7850"),
+                                  "objects.toml", "metal.density_kg_m3"),
+    "material missing field": ("materials/objects.toml",
+                               lambda p: p.write_text(re.sub(r"(\[glass\][^\[]*?)youngs_modulus_pa = [^\n]+\n",
+                                                             r"\1", p.read_text(), count=1, flags=re.S)),
+                               "objects.toml", "glass.youngs_modulus_pa"),
+    "surface bad bands": ("materials/surfaces.toml",
+                          lambda p: p.write_text(re.sub(r"absorption = \[([^,\]]+),", "absorption = [",
+                                                        p.read_text(), count=1)),
+                          "surfaces.toml", "absorption"),
+    "category unknown material": ("objects/categories.toml",
+                                  lambda p: _sub(p, "plastic_hard", "plastic_hardd"),
+                                  "categories.toml", "materials"),
+    "category missing field": ("objects/categories.toml",
+                               lambda p: p.write_text(re.sub(r'\ndescription = "[^"]*"\n', "\n",
+                                                             p.read_text(), count=1)),
+                               "categories.toml", "description"),
+    "toml syntax": ("rooms/kitchen_galley.toml", lambda p: _sub(p, "size_m = [", "size_m = [[", 1),
+                    "kitchen_galley.toml", "<syntax>"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(BREAKAGES))
+def test_malformed_file_gives_one_line_error(capsys, data_copy, tmp_path, name):
+    rel, breaker, fname, field = BREAKAGES[name]
+    breaker(data_copy / rel)
+    out = tmp_path / "out.png"
+    code, _, err = run(capsys, "rooms", "show", "kitchen_galley-l1-m1", "-o", str(out),
+                       "--data-dir", str(data_copy))
+    assert code == 2, err
+    assert err.startswith("error: ") and err.count("\n") == 1, err
+    assert fname in err and field in err, err
+    assert not out.exists()
+
+
+def test_bad_data_dir(capsys, tmp_path):
+    code, _, err = run(capsys, "rooms", "list", "--data-dir", str(tmp_path))
+    assert code == 2 and "not a fallgen data directory" in err
