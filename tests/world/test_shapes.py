@@ -25,6 +25,7 @@ CATEGORIES_FILE = ROOT / "objects" / "categories.toml"
 DENSITY = {
     "plastic_hard": 1050.0,
     "plastic_hard/wax": 900.0,
+    "plastic_hard/golf_ball": 1130.0,
     "plastic_soft_foam": 60.0,
     "glass": 2500.0,
     "metal": 7850.0,  # steel
@@ -156,9 +157,8 @@ MASS_G: dict[tuple[str, str, str], tuple[float, float]] = {
     ("pen", "*", "metal/aluminium"): (7, 35),
     # over-ear headphones 200-300 g, on-ear 120-180 g
     ("headphone", "*", "*"): (90, 350),
-    # rules: at most 45.93 g, real balls 45-46 g. plastic_hard (1050 kg/m^3) is lighter than
-    # a ball's mean density (~1130 kg/m^3), so the model weighs ~42.5 g; lower bound relaxed.
-    ("golf_ball", "*", "*"): (41, 47),
+    # rules: at most 45.93 g; real balls 45-46 g (grade plastic_hard/golf_ball, 1130 kg/m^3)
+    ("golf_ball", "*", "*"): (44.5, 46.0),
     # 11.5 mm (18 L) polyester shirt buttons ~0.2-0.3 g, 15 mm 0.4-0.8 g
     ("shirt_button", "*", "*"): (0.12, 1.5),
     # paperback 250-350 g, hardcover novel 500-900 g, coffee-table book 1-2 kg

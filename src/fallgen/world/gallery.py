@@ -16,6 +16,7 @@ import numpy as np
 from fallgen.world.objects import CategoryLibrary, ObjectInstance
 
 TILE = 220
+LABEL_H = 46
 
 
 def _render_instance(inst: ObjectInstance, size: int = TILE) -> np.ndarray:
@@ -27,7 +28,7 @@ def _render_instance(inst: ObjectInstance, size: int = TILE) -> np.ndarray:
     spec.visual.global_.offwidth = size
     spec.visual.global_.offheight = size
     g = spec.worldbody.add_geom()
-    g.type, g.size, g.rgba = mujoco.mjtGeom.mjGEOM_PLANE, [1, 1, 0.01], [0.82, 0.82, 0.8, 1]
+    g.type, g.size, g.rgba = mujoco.mjtGeom.mjGEOM_PLANE, [20, 20, 0.01], [0.82, 0.82, 0.8, 1]
     light = spec.worldbody.add_light()
     light.pos, light.dir, light.diffuse = [0.3, -0.3, 1.0], [-0.3, 0.3, -1.0], [0.5, 0.5, 0.5]
     mesh = spec.add_mesh()
@@ -66,19 +67,21 @@ def contact_sheet(lib: CategoryLibrary, categories: Sequence[str] | None = None,
             continue
         for v in cat.variants:
             inst = lib.instance(cat.id, v.name, sorted(v.materials)[0])
-            img = np.ascontiguousarray(_render_instance(inst)[:, :, ::-1])
+            img = np.full((TILE + LABEL_H, TILE, 3), 255, np.uint8)
+            img[LABEL_H:] = _render_instance(inst)[:, :, ::-1]
             dims = " x ".join(f"{x * 1000:.0f}" for x in sorted(inst.extents_m, reverse=True))
             for k, text in enumerate((f"{cat.id}/{v.name}",
                                       f"{dims} mm, {inst.mass_kg * 1000:.1f} g",
                                       inst.material.name)):
-                cv2.putText(img, text, (4, 14 + 14 * k), cv2.FONT_HERSHEY_SIMPLEX, 0.38,
+                cv2.putText(img, text, (4, 13 + 14 * k), cv2.FONT_HERSHEY_SIMPLEX, 0.37,
                             (10, 10, 10), 1, cv2.LINE_AA)
             tiles.append(img[:, :, ::-1])
     if not tiles:
         raise ValueError("no categories selected")
     rows = math.ceil(len(tiles) / cols)
-    sheet = np.full((rows * TILE, min(cols, len(tiles)) * TILE, 3), 255, np.uint8)
+    th = TILE + LABEL_H
+    sheet = np.full((rows * th, min(cols, len(tiles)) * TILE, 3), 255, np.uint8)
     for i, t in enumerate(tiles):
         r, c = divmod(i, cols)
-        sheet[r * TILE:(r + 1) * TILE, c * TILE:(c + 1) * TILE] = t
+        sheet[r * th:(r + 1) * th, c * TILE:(c + 1) * TILE] = t
     return sheet

@@ -20,16 +20,17 @@ Tubes
     :func:`sweep` moves a (super-)elliptic cross-section along a planar path: handles, bands,
     straps, pen bodies. :func:`torus_arc` is the circular special case.
 Primitives
-    :func:`rounded_box`, :func:`rounded_cylinder`, :func:`ellipsoid`, :func:`sphere`,
-    :func:`capsule`, :func:`box`.
+    :func:`box`, :func:`rounded_box`, :func:`rounded_slab`, :func:`cylinder`,
+    :func:`rounded_cylinder`, :func:`ellipsoid`, :func:`sphere`, :func:`capsule`.
 Booleans
-    :func:`union`, :func:`difference`, :func:`intersection` (manifold3d engine; results checked
-    to be closed solids).
+    :func:`union`, :func:`difference`, :func:`intersection` run manifold3d (trimesh's boolean
+    engine) directly in float64, then remove the slivers the cut lines leave
+    (:func:`collapse_short_edges`, :func:`flip_flat_caps`); results are checked to be closed.
 Collision pieces
     :func:`convex_parts_2d` (approximate convex decomposition of a polygon),
-    :meth:`Lathe.pieces` (angular sectors of a revolved wall plus full-turn axial pieces),
-    :meth:`Sweep.pieces`, :func:`clip_piece` (the part of a mesh inside a box) and
-    :func:`hull_points`.
+    :meth:`Lathe.pieces` / :func:`convex_pieces_of_revolution` (angular sectors of a revolved
+    wall plus full-turn axial pieces), :meth:`Sweep.pieces`, :func:`clip_piece` (the part of a
+    mesh inside a box) and :func:`hull_points`.
 Checks
     :func:`validate_shape` lists what is wrong with a shape; :func:`collision_stats` gives the
     numbers behind it.
@@ -191,6 +192,38 @@ def _signed_area(p: np.ndarray) -> float:
 # =============================================================================================
 # Revolve
 # =============================================================================================
+def _grade_profile(p: np.ndarray, segments: int, *, ratio: float = 3.0,
+                   floor: float = 1e-3) -> np.ndarray:
+    """Split profile segments whose radius at least doubles and that are much longer than the
+    ring spacing at their inner end (``ratio`` x 2 pi r / segments, at least ``floor``) into a
+    geometric progression, so that rings near the axis are not joined to far ones by needle
+    triangles. Segments from the axis points are left alone (their triangle fans are fine)."""
+    step = ratio * 2.0 * np.pi / segments
+    out = [p[0]]
+    for i in range(len(p) - 1):
+        a, b = p[i], p[i + 1]
+        lo, hi = sorted((a[0], b[0]))
+        if i == 0 or i == len(p) - 2 or hi < 2.0 * lo:  # only segments that change r a lot
+            out.append(b)
+            continue
+        rev = b[0] < a[0]
+        s, e = (b, a) if rev else (a, b)
+        d = e - s
+        ln = float(np.linalg.norm(d))
+        pts, t = [], 0.0
+        while True:
+            r = s[0] + d[0] * t / ln
+            t += max(step * r, floor)
+            if t >= ln * 0.95:
+                break
+            pts.append(s + d * t / ln)
+        if rev:
+            pts = pts[::-1]
+        out.extend(pts)
+        out.append(b)
+    return np.array(out)
+
+
 def revolve(profile: Any, segments: int = 48, *, max_len: float | None = None,
             phase: float = 0.0) -> trimesh.Trimesh:
     """Closed surface of revolution about +z.
@@ -207,6 +240,7 @@ def revolve(profile: Any, segments: int = 48, *, max_len: float | None = None,
     p = _profile_array(profile)
     if max_len:
         p = resample_polyline(p, max_len)
+    p = _grade_profile(p, segments)
     rings = p[1:-1]
     n = len(rings)
     th = phase + 2.0 * np.pi * np.arange(segments) / segments
@@ -662,13 +696,31 @@ def extrude(polygon: Any, thickness: float, holes: Iterable[Any] = (), *,
     if max_len:
         g = shapely.segmentize(g, max_len)
     polys = list(g.geoms) if isinstance(g, MultiPolygon) else [g]
-    meshes = []
-    for p in polys:
-        v, f = triangulate(orient(p, 1.0))
-        m = trimesh.creation.extrude_triangulation(v, f, thickness)
-        m.apply_translation([0.0, 0.0, -thickness / 2.0])
-        meshes.append(m)
+    layers = max(1, math.ceil(thickness / max_len - 1e-9)) if max_len else 1
+    meshes = [_extrude_layers(orient(p, 1.0), thickness, layers) for p in polys]
     m = trimesh.util.concatenate(meshes) if len(meshes) > 1 else meshes[0]
+    if m.volume < 0:
+        m.invert()
+    return m
+
+
+def _extrude_layers(poly: Polygon, thickness: float, layers: int) -> trimesh.Trimesh:
+    """Prism over a polygon, its side walls split into ``layers`` rows of quads."""
+    v2, f2 = triangulate(poly)
+    n = len(v2)
+    zs = np.linspace(-thickness / 2.0, thickness / 2.0, layers + 1)
+    verts = np.vstack([np.column_stack([v2, np.full(n, z)]) for z in zs])
+    faces = [f2[:, ::-1], f2 + layers * n]  # bottom (facing down), top
+    # boundary edges of the triangulation, oriented as in the counter-clockwise faces
+    e = np.vstack([f2[:, [0, 1]], f2[:, [1, 2]], f2[:, [2, 0]]])
+    key = np.sort(e, axis=1)
+    _, inv, cnt = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    bnd = e[cnt[inv.ravel()] == 1]
+    for k in range(layers):
+        a, b = bnd[:, 0] + k * n, bnd[:, 1] + k * n
+        c, d = b + n, a + n
+        faces += [np.column_stack([a, b, c]), np.column_stack([a, c, d])]
+    m = trimesh.Trimesh(verts, np.vstack(faces), process=False)
     if m.volume < 0:
         m.invert()
     return m
@@ -828,8 +880,15 @@ def torus_arc(major_radius: float, minor_radius: float, start: float, stop: floa
 # =============================================================================================
 # Primitives
 # =============================================================================================
-def box(size: Sequence[float], center: Sequence[float] = (0, 0, 0)) -> trimesh.Trimesh:
-    m = trimesh.creation.box(extents=np.asarray(size, float))
+def box(size: Sequence[float], center: Sequence[float] = (0, 0, 0), *,
+        max_len: float | None = None) -> trimesh.Trimesh:
+    """Axis-aligned box. With ``max_len`` its faces are split into pieces of about that size
+    (better triangles where booleans cut it)."""
+    L, W, H = (float(x) for x in size)
+    if max_len is None:
+        m = trimesh.creation.box(extents=(L, W, H))
+    else:
+        m = extrude(_sbox(-L / 2, -W / 2, L / 2, W / 2), H, max_len=max_len, min_len=0)
     m.apply_translation(center)
     return m
 
@@ -865,6 +924,7 @@ def rounded_slab(size: Sequence[float], corner_radius: float, edge_radius: float
     re = min(re, rc)
     if max_len is None:
         max_len = max(min(L, W) / 4.0, max(L, W) / 12.0, 1e-3)
+        max_len = min(max_len, max(8.0 * H, min(L, W) / 8.0))  # thin plates: shorter runs
     # no rounding band much narrower than the straight runs are long (no needle triangles)
     edge_segments = int(np.clip(round(re * np.pi / 2 / (max_len / 6.0)), 1, edge_segments))
     hx, hy = L / 2 - rc, W / 2 - rc
@@ -1194,6 +1254,8 @@ def collapse_short_edges(mesh: trimesh.Trimesh, min_len: float, *, passes: int =
         for a, b in e:
             nbrs[a].add(b)
             nbrs[b].add(a)
+        vf = m.vertex_faces
+        fn = m.face_normals
         touched = np.zeros(len(v), bool)
         remap = np.arange(len(v))
         nv = v.copy()
@@ -1201,9 +1263,25 @@ def collapse_short_edges(mesh: trimesh.Trimesh, min_len: float, *, passes: int =
             a, b = e[k]
             if touched[a] or touched[b] or len(nbrs[a] & nbrs[b]) != 2:
                 continue
+            mid = (v[a] + v[b]) / 2.0
+            # the surviving faces around a and b must not fold over (flip their normal)
+            around = {int(x) for x in np.concatenate([vf[a], vf[b]]) if x >= 0}
+            ok = True
+            for fi in around:
+                tri = f[fi]
+                if a in tri and b in tri:
+                    continue
+                p = np.where(((tri == a) | (tri == b))[:, None], mid, v[tri])
+                n = np.cross(p[1] - p[0], p[2] - p[0])
+                ln = np.linalg.norm(n)
+                if ln == 0 or float(n @ fn[fi]) < 0.5 * ln:
+                    ok = False
+                    break
+            if not ok:
+                continue
             touched[list(nbrs[a] | nbrs[b] | {a, b})] = True
             remap[b] = a
-            nv[a] = (v[a] + v[b]) / 2.0
+            nv[a] = mid
         nf = remap[f]
         keep = (nf[:, 0] != nf[:, 1]) & (nf[:, 1] != nf[:, 2]) & (nf[:, 0] != nf[:, 2])
         nf = nf[keep]

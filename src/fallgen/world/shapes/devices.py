@@ -217,7 +217,7 @@ def pen(*, length_m: float = 0.145, diameter_m: float = 0.0085, wall_m: float = 
     body = mk.Lathe(mk.half_section(sec), 24, min_len=1e-4).mesh()
     parts = [body]
     if clip:
-        z_top = L - 0.003 if cap else 0.004
+        z_top = L - 0.003 if cap else 0.0075  # starts inside the solid cap or back wall
         sgn = -1.0 if cap else 1.0
         zs = z_top + sgn * np.array([0.0, 0.003, 0.006, 0.02, 0.034, 0.04])
         xs = np.array([0.5 * rc, rc + 0.0008, rc + 0.0012, rc + 0.0011, rc + 0.0009, rc + 0.0006])

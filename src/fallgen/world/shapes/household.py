@@ -228,7 +228,7 @@ def towel(*, length_m: float = 0.30, width_m: float = 0.21, thickness_m: float =
         polys.append(mk.rounded_rect(L - 0.008, tl * 1.02, 0.49 * tl, segments=5,
                                      center=(dx, (i + 0.5) * tl)))
     prof = unary_union(polys).buffer(0.3 * tl, quad_segs=4).buffer(-0.3 * tl, quad_segs=4)
-    m = _extrude_side(prof, width_m, max_len=0.02)
+    m = _extrude_side(prof, width_m, max_len=0.05)
     return finish(m)
 
 
@@ -241,7 +241,7 @@ def cardboard_box(*, length_m: float = 0.30, width_m: float = 0.20, height_m: fl
     need(3 * w < min(L, W, H), "cardboard_box", "wall_m", "too thick for the size")
     if not open_top:
         outer = mk.rounded_box((L, W, H), min(0.002, w / 2), segments=1)
-        inner = mk.box((L - 2 * w, W - 2 * w, H - 2 * w))
+        inner = mk.box((L - 2 * w, W - 2 * w, H - 2 * w), max_len=max(0.015, min(L, W, H) / 6))
         holes = []
         for sx in (1, -1):
             hh = mk.extrude(mk.rounded_rect(0.08 * min(1.0, W / 0.2), 0.025, 0.0124), 4 * w)
@@ -249,22 +249,23 @@ def cardboard_box(*, length_m: float = 0.30, width_m: float = 0.20, height_m: fl
             hh.apply_translation([sx * L / 2, 0, 0.3 * H])
             holes.append(hh)
         return finish(mk.difference(outer, [inner, *holes], tolerance=0.3 * w))
-    parts = [mk.box((L, W, w), center=(0, 0, w / 2)),
-             mk.box((w, W, H), center=(L / 2 - w / 2, 0, H / 2)),
-             mk.box((w, W, H), center=(-L / 2 + w / 2, 0, H / 2)),
-             mk.box((L - 2 * w, w, H), center=(0, W / 2 - w / 2, H / 2)),
-             mk.box((L - 2 * w, w, H), center=(0, -W / 2 + w / 2, H / 2))]
+    ml = max(0.015, min(L, W, H) / 6)
+    parts = [mk.box((L, W, w), center=(0, 0, w / 2), max_len=ml),
+             mk.box((w, W, H), center=(L / 2 - w / 2, 0, H / 2), max_len=ml),
+             mk.box((w, W, H), center=(-L / 2 + w / 2, 0, H / 2), max_len=ml),
+             mk.box((L - 2 * w, w, H), center=(0, W / 2 - w / 2, H / 2), max_len=ml),
+             mk.box((L - 2 * w, w, H), center=(0, -W / 2 + w / 2, H / 2), max_len=ml)]
     if flaps:
         a = math.radians(35.0)
         hf = W / 2 - 0.002
         for sgn in (1, -1):
             # long sides: hinge along x at y = +-W/2, tilted outwards about x
-            f = mk.box((L - 0.002, w, hf), center=(0, -sgn * w / 2, hf / 2))
+            f = mk.box((L - 0.002, w, hf), center=(0, -sgn * w / 2, hf / 2), max_len=ml)
             f.apply_transform(trimesh.transformations.rotation_matrix(-sgn * a, [1, 0, 0]))
             f.apply_translation([0, sgn * W / 2, H - 0.0015])
             parts.append(f)
             # short sides: hinge along y at x = +-L/2, tilted outwards about y
-            f = mk.box((w, W - 0.002, hf), center=(-sgn * w / 2, 0, hf / 2))
+            f = mk.box((w, W - 0.002, hf), center=(-sgn * w / 2, 0, hf / 2), max_len=ml)
             f.apply_transform(trimesh.transformations.rotation_matrix(sgn * a, [0, 1, 0]))
             f.apply_translation([sgn * L / 2, 0, H - 0.0015])
             parts.append(f)

@@ -14,7 +14,7 @@ import numpy as np
 import shapely
 import trimesh
 from shapely import affinity
-from shapely.geometry import LineString, Polygon
+from shapely.geometry import LineString, Point, Polygon
 from shapely.geometry import box as sbox
 
 from fallgen.world import meshkit as mk
@@ -228,7 +228,7 @@ def jug(*, height_m: float = 0.20, base_diameter_m: float = 0.10, body_diameter_
 # ---------------------------------------------------------------------------------------------
 # closed or narrow vessels (convex hull collision)
 # ---------------------------------------------------------------------------------------------
-@shape("bottle", punt_m=(0.0, 0.06), bead_m=(0.0, 0.01), bead_offset_m=(0.0, 0.2))
+@shape("bottle", punt_m=(0.0, 0.03), bead_m=(0.0, 0.01), bead_offset_m=(0.0, 0.2))
 def bottle(*, height_m: float = 0.30, diameter_m: float = 0.076, neck_diameter_m: float = 0.029,
            neck_length_m: float = 0.085, shoulder_length_m: float = 0.065, wall_m: float = 0.0035,
            punt_m: float = 0.025, bead_m: float = 0.0015, bead_height_m: float = 0.011,
@@ -249,18 +249,21 @@ def bottle(*, height_m: float = 0.30, diameter_m: float = 0.076, neck_diameter_m
     s = np.linspace(0.0, 1.0, 12)
     shoulder = np.column_stack([rn + (R - rn) * (1 + np.cos(np.pi * s)) / 2,
                                 zb + shoulder_length_m * s])
-    zt = H - bead_offset_m
-    neck = [[rn, zt - bead_height_m - 0.0015], [rn + bead_m, zt - bead_height_m],
-            [rn + bead_m, zt]] if bead_m > 0 else []
-    if bead_offset_m > 0 or bead_m == 0:
-        neck = neck + [[rn, zt - 0.0008 if bead_m > 0 else H]] + ([[rn, H]] if bead_m > 0 else [])
+    zt = H - bead_offset_m  # top of the bead ring
+    if bead_m == 0:
+        neck = [[rn, H]]
+    else:
+        neck = [[rn, zt - bead_height_m - 0.0015], [rn + bead_m, zt - bead_height_m],
+                [rn + bead_m, zt]]
+        if bead_offset_m > 0:  # a flange below the mouth (PET support ring), then the finish
+            neck += [[rn, zt - 0.0008], [rn, H]]
     outer = np.vstack([base, [[R, 0.0]], shoulder, neck])
     radii = np.zeros(len(outer))
     radii[len(base) - 1] = 0.004 if punt_m > 0 else 0.0
     radii[len(base)] = min(0.008, 0.3 * R)
     outer = mk.fillet_polyline(outer, radii)
-    lathe = mk.Lathe.hollow(outer, wall_m, rim_radius=0.45 * wall_m, segments=36,
-                            min_len=min(5e-4, wall_m / 3))
+    lathe = mk.Lathe.hollow(outer, wall_m, rim_radius=0.45 * wall_m,
+                            segments=36 if wall_m > 0.001 else 32, min_len=min(5e-4, wall_m / 3))
     return finish(lathe.mesh())
 
 
@@ -301,16 +304,16 @@ def soda_can(*, diameter_m: float = 0.0662, height_m: float = 0.1222,
     inner = mk.section_profile(cav, min_len=5e-5)
     outer = np.asarray(shapely.simplify(LineString(outer), 5e-5).coords)
     inner = np.asarray(shapely.simplify(LineString(inner), 5e-5).coords)
-    seg = 40
+    seg = 36
     out_m = mk.revolve(outer, seg, max_len=0.01)
     in_m = mk.revolve(inner, seg, max_len=0.01)
     in_m.invert()
     can = trimesh.util.concatenate([out_m, in_m])
     if opened:
-        slot = LineString([(0.35 * rl, 0.0), (0.78 * rl, 0.0)]).buffer(0.0075, quad_segs=6)
-        slot = slot.intersection(sbox(0.3 * rl, -1, 0.82 * rl, 1))
-        hole = mk.extrude(slot.buffer(0.002, quad_segs=3).intersection(
-            sbox(0.28 * rl, -1, 0.84 * rl, 1)), 0.006)
+        # tear-drop opening between the centre (tab rivet) and the seam
+        drop = shapely.union_all([Point(0.72 * rl, 0.0).buffer(0.26 * rl, quad_segs=6),
+                                  Point(0.36 * rl, 0.0).buffer(0.15 * rl, quad_segs=4)]).convex_hull
+        hole = mk.extrude(drop, 0.006, max_len=0.004)
         hole.apply_translation([0.0, 0.0, H - 0.0062])
         can = mk.difference(can, hole, tolerance=0.3 * side_wall_m)
     return finish(can)
@@ -396,5 +399,5 @@ def candle(*, diameter_m: float = 0.022, height_m: float = 0.25, top_diameter_m:
     radii[1] = edge_radius_m
     if tip_fraction == 0:
         radii[2] = edge_radius_m
-    prof = mk.fillet_polyline(prof, radii)
-    return finish(mk.Lathe.solid(prof, 32 if diameter_m < 0.03 else 48, min_len=1e-4).mesh())
+    prof = mk.fillet_polyline(prof, radii, max_step_deg=30)
+    return finish(mk.Lathe.solid(prof, 24 if diameter_m < 0.03 else 48, min_len=1e-4).mesh())
