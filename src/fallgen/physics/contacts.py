@@ -1,0 +1,219 @@
+"""Contact events of one falling body, extracted step by step from MuJoCo.
+
+A *contact episode* is an uninterrupted run of contact between the falling body and one other
+geom (the floor, a shelf board, a distractor). Each episode that starts with the two approaching
+faster than ``impact_speed_mps`` yields one ``impact`` event: when it started, where, the normal,
+the relative normal speed just before contact, and the normal impulse delivered while the bodies
+were still approaching (for a plastic contact that is m v). Resting contact is not an impact.
+While an episode lasts, the contact is sampled every ``sample_s``: samples where the surfaces slip
+faster than ``slip_speed_mps`` become ``scrape`` events; samples where the contact point travels
+over the surface without slipping become ``roll`` events. Every bounce is its own episode.
+
+Conventions: the normal points from the other surface toward the falling body; speeds are in
+m/s, impulses in N s, forces in N; points are in world coordinates and in the body's frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+KINDS = ("impact", "scrape", "roll")
+
+
+@dataclass(frozen=True)
+class ContactParams:
+    impact_speed_mps: float = 0.05  # slower approaches are resting contact, not impacts
+    slip_speed_mps: float = 0.02  # tangential slip that makes a scrape
+    roll_speed_mps: float = 0.02  # contact-point travel (without slip) that makes a roll
+    sample_s: float = 0.01  # sampling period of sustained contact
+    gap_steps: int = 2  # an episode ends after this many steps without contact
+    rest_speed_mps: float = 1e-3  # normal speeds below this end the compression phase
+    max_compression_s: float = 0.02  # ... and it never lasts longer than this
+
+
+@dataclass(frozen=True)
+class ContactEvent:
+    time_s: float
+    kind: str  # impact | scrape | roll
+    other: str  # owner of the other geom: "floor", "wall_north", "<furniture id>", "obj:<name>"
+    geom_object: int
+    geom_other: int
+    material_object: str
+    material_other: str
+    point_world: tuple[float, float, float]
+    point_object: tuple[float, float, float]
+    normal: tuple[float, float, float]  # from the other surface toward the object
+    normal_speed_mps: float  # approach speed just before contact (impacts), else mean
+    impulse_ns: float  # normal impulse: compression phase (impacts) or over the sample
+    tangential_speed_mps: float  # slip speed at the contact point
+    duration_s: float  # compression time (impacts) or sample length
+    mean_force_n: float  # mean normal force over duration_s
+
+
+@dataclass
+class _Episode:
+    start_step: int
+    geom_object: int
+    point_world: np.ndarray
+    point_object: np.ndarray
+    normal: np.ndarray
+    approach_mps: float
+    impulse: float = 0.0
+    compressing: bool = True
+    compression_steps: int = 0
+    last_seen: int = 0
+    # sustained-contact sample accumulators
+    s_steps: int = 0
+    s_force: float = 0.0
+    s_slip: float = 0.0
+    s_normal_speed: float = 0.0
+    s_start_point: np.ndarray | None = None
+    s_start_step: int = 0
+    s_point: np.ndarray | None = None
+    events: list[ContactEvent] = field(default_factory=list)
+
+
+class ContactRecorder:
+    """Call :meth:`before_step` and :meth:`after_step` around every ``mj_step``."""
+
+    def __init__(self, model: mujoco.MjModel, body_id: int, geom_owner: tuple[str, ...],
+                 geom_material: tuple[str, ...], params: ContactParams = ContactParams()) -> None:
+        self.m = model
+        self.body = body_id
+        self.owner = geom_owner
+        self.material = geom_material
+        self.p = params
+        self.dt = model.opt.timestep
+        self.sample_steps = max(1, int(round(params.sample_s / self.dt)))
+        self.step = 0
+        self.open: dict[int, _Episode] = {}
+        self.events: list[ContactEvent] = []
+        self._force = np.zeros(6)
+        self._prev_v = np.zeros(3)
+        self._prev_w = np.zeros(3)
+        self._prev_com = np.zeros(3)
+
+    # -- kinematics ---------------------------------------------------------------------------
+    def _body_velocity(self, d: mujoco.MjData) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """World linear velocity of the centre of mass, world angular velocity, and the com."""
+        vel = np.zeros(6)
+        mujoco.mj_objectVelocity(self.m, d, mujoco.mjtObj.mjOBJ_BODY, self.body, vel, 0)
+        # vel = [angular, linear] at the body's centre of mass, world-aligned.
+        return vel[3:].copy(), vel[:3].copy(), d.xipos[self.body].copy()
+
+    def before_step(self, d: mujoco.MjData) -> None:
+        self._prev_v, self._prev_w, self._prev_com = self._body_velocity(d)
+
+    def after_step(self, d: mujoco.MjData) -> None:
+        self.step += 1
+        v, w, com = self._body_velocity(d)
+        xmat = d.xmat[self.body].reshape(3, 3)
+        xpos = d.xpos[self.body]
+        seen: dict[int, tuple] = {}
+        gb = self.m.geom_bodyid
+        for i in range(d.ncon):
+            c = d.contact[i]
+            g1, g2 = int(c.geom1), int(c.geom2)
+            if gb[g1] == self.body and gb[g2] != self.body:
+                mine, other, sign = g1, g2, -1.0
+            elif gb[g2] == self.body and gb[g1] != self.body:
+                mine, other, sign = g2, g1, 1.0
+            else:
+                continue
+            mujoco.mj_contactForce(self.m, d, i, self._force)
+            fn = float(self._force[0])
+            n = sign * np.asarray(c.frame[:3])  # frame normal points geom1 -> geom2
+            pos = np.asarray(c.pos).copy()
+            if other in seen:  # several contact points with one geom: sum forces
+                s = seen[other]
+                seen[other] = (s[0], s[1], s[2], s[3] + fn)
+            else:
+                seen[other] = (mine, pos, n, fn)
+        for other, (mine, pos, n, fn) in seen.items():
+            vp = v + np.cross(w, pos - com)  # object's contact point velocity (others static)
+            vn = float(vp @ n)  # > 0 separating
+            slip = float(np.linalg.norm(vp - vn * n))
+            ep = self.open.get(other)
+            if ep is None:
+                vp0 = self._prev_v + np.cross(self._prev_w, pos - self._prev_com)
+                ep = _Episode(
+                    start_step=self.step, geom_object=mine, point_world=pos,
+                    point_object=xmat.T @ (pos - xpos), normal=n,
+                    approach_mps=max(0.0, -float(vp0 @ n)),
+                    s_start_point=pos, s_start_step=self.step,
+                )
+                self.open[other] = ep
+            ep.last_seen = self.step
+            if ep.compressing:
+                ep.impulse += fn * self.dt
+                ep.compression_steps += 1
+                if vn >= -self.p.rest_speed_mps or \
+                        ep.compression_steps * self.dt >= self.p.max_compression_s:
+                    ep.compressing = False
+            else:
+                self._sample(ep, other, pos, n, fn, vn, slip)
+        for other in [g for g, ep in self.open.items() if self.step - ep.last_seen >= self.p.gap_steps]:
+            self._close(other)
+
+    # -- events -------------------------------------------------------------------------------
+    def _sample(self, ep: _Episode, other: int, pos, n, fn, vn, slip) -> None:
+        ep.s_steps += 1
+        ep.s_force += fn
+        ep.s_slip += slip
+        ep.s_normal_speed += abs(vn)
+        ep.s_point = pos
+        if ep.s_start_point is None:
+            ep.s_start_point, ep.s_start_step = pos, self.step
+        if ep.s_steps >= self.sample_steps:
+            self._flush_sample(ep, other, n)
+
+    def _flush_sample(self, ep: _Episode, other: int, n) -> None:
+        if ep.s_steps == 0:
+            return
+        dur = ep.s_steps * self.dt
+        slip = ep.s_slip / ep.s_steps
+        travel = float(np.linalg.norm(ep.s_point - ep.s_start_point)) / dur
+        kind = "scrape" if slip >= self.p.slip_speed_mps else (
+            "roll" if travel >= self.p.roll_speed_mps else None)
+        if kind is not None:
+            xm = None
+            ep.events.append(self._event(
+                time=(ep.s_start_step - 1) * self.dt, kind=kind, ep=ep, other=other,
+                point=ep.s_point, normal=n, normal_speed=ep.s_normal_speed / ep.s_steps,
+                impulse=ep.s_force * self.dt, slip=slip, duration=dur,
+                mean_force=ep.s_force / ep.s_steps, point_object=xm))
+        ep.s_steps, ep.s_force, ep.s_slip, ep.s_normal_speed = 0, 0.0, 0.0, 0.0
+        ep.s_start_point, ep.s_start_step = None, self.step + 1
+
+    def _event(self, *, time, kind, ep, other, point, normal, normal_speed, impulse, slip,
+               duration, mean_force, point_object=None) -> ContactEvent:
+        po = ep.point_object if point_object is None else point_object
+        return ContactEvent(
+            time_s=float(time), kind=kind, other=self.owner[other],
+            geom_object=ep.geom_object, geom_other=other,
+            material_object=self.material[ep.geom_object], material_other=self.material[other],
+            point_world=tuple(float(x) for x in point), point_object=tuple(float(x) for x in po),
+            normal=tuple(float(x) for x in normal), normal_speed_mps=float(normal_speed),
+            impulse_ns=float(impulse), tangential_speed_mps=float(slip),
+            duration_s=float(duration), mean_force_n=float(mean_force))
+
+    def _close(self, other: int) -> None:
+        ep = self.open.pop(other)
+        self._flush_sample(ep, other, ep.normal)
+        if ep.approach_mps >= self.p.impact_speed_mps:
+            dur = ep.compression_steps * self.dt
+            self.events.append(self._event(
+                time=(ep.start_step - 1) * self.dt, kind="impact", ep=ep, other=other,
+                point=ep.point_world, normal=ep.normal, normal_speed=ep.approach_mps,
+                impulse=ep.impulse, slip=0.0, duration=dur,
+                mean_force=ep.impulse / dur if dur > 0 else 0.0))
+        self.events.extend(ep.events)
+
+    def finish(self) -> list[ContactEvent]:
+        """Close open episodes; all events sorted by time (impacts first on ties)."""
+        for other in list(self.open):
+            self._close(other)
+        return sorted(self.events, key=lambda e: (e.time_s, KINDS.index(e.kind), e.geom_other))

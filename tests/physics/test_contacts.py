@@ -1,0 +1,98 @@
+"""Contact events from MuJoCo against analytic references: free fall, momentum, slip, roll."""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from fallgen.physics.contacts import ContactRecorder
+from fallgen.world.scene import PlacedObject, build_scene
+
+G = 9.81
+
+
+def _floor_spot(world):
+    v = world.variant("study_loft-l1-m1")
+    z = max((z for z in v.zones if z.kind == "floor"), key=lambda z: z.volume.half[0] * z.volume.half[1])
+    return v, z.volume.center[:2]
+
+
+def _run(world, cat, z0, *, qvel=None, quat=(1, 0, 0, 0), steps=1200):
+    v, (x, y) = _floor_spot(world)
+    lib = world.categories
+    var = lib[cat].variants[0]
+    inst = lib.instance(cat, var.name, sorted(var.materials)[0])
+    scene = build_scene(v, world.materials, [PlacedObject("t", inst, (x, y, z0), quat)])
+    m, d = scene.model, scene.data()
+    if qvel is not None:
+        d.qvel[:6] = qvel
+    mujoco.mj_forward(m, d)
+    rec = ContactRecorder(m, scene.object_body["t"], scene.geom_owner, scene.geom_material)
+    vz = []
+    for _ in range(steps):
+        rec.before_step(d)
+        mujoco.mj_step(m, d)
+        rec.after_step(d)
+        vz.append(d.qvel[2])
+    return inst, rec.finish(), np.array(vz), m.opt.timestep
+
+
+@pytest.mark.parametrize("cat", ["cup", "key", "bowl"])
+def test_first_impact_matches_free_fall_and_momentum(world, cat):
+    z0 = 1.2
+    inst, events, vz, dt = _run(world, cat, z0)
+    lowest = (inst.geometry.vertices * inst.scale).min(axis=0)[2]  # body frame, upright
+    h = z0 + lowest
+    t_ff = math.sqrt(2 * h / G)
+    first = events[0]
+    assert first.kind == "impact" and first.other == "floor"
+    assert abs(first.time_s - t_ff) <= 2 * dt
+    assert first.normal_speed_mps == pytest.approx(G * t_ff, rel=0.02)
+    assert first.normal == pytest.approx((0.0, 0.0, 1.0), abs=1e-6)
+    assert first.material_other == world.variant("study_loft-l1-m1").surfaces["floor"].impact_material
+    # The collision impulse is the momentum change of the body over the impact steps...
+    k0 = int(round(first.time_s / dt))
+    k1 = k0 + max(1, int(round(first.duration_s / dt)))
+    dv = vz[k1 - 1] - vz[k0 - 1]
+    assert first.impulse_ns == pytest.approx(inst.mass_kg * dv, rel=0.05)
+    # ... m v (1 + e): within 15 % of m v for objects that barely bounce.
+    rebound = vz[k1 - 1] / first.normal_speed_mps
+    if rebound < 0.12:
+        assert first.impulse_ns == pytest.approx(inst.mass_kg * first.normal_speed_mps, rel=0.15)
+
+
+def test_resting_contact_is_not_an_impact(world):
+    inst, events, vz, dt = _run(world, "cup", 0.3, steps=2500)
+    impacts = [e for e in events if e.kind == "impact"]
+    assert impacts and all(e.normal_speed_mps >= 0.05 for e in impacts)
+    assert impacts[-1].time_s < 1.0  # nothing after it has settled (t up to 5 s)
+    assert abs(vz[-1]) < 1e-3
+
+
+def test_sliding_book_scrapes(world):
+    # A book slid across the floor at 1.5 m/s: scrapes whose slip speed falls to zero by about
+    # v / (mu g). (MuJoCo's convex contact model lifts a sliding body by ~mu v_t, so it also
+    # hops: the impacts in between are real events of the simulation.)
+    inst, events, vz, dt = _run(world, "book", 0.0151, qvel=[1.5, 0, 0, 0, 0, 0], steps=600)
+    scrapes = [e for e in events if e.kind == "scrape"]
+    assert len(scrapes) >= 5
+    assert 0.5 < scrapes[0].tangential_speed_mps <= 1.5
+    assert scrapes[-1].tangential_speed_mps < 0.3 * scrapes[0].tangential_speed_mps
+    mu = 0.5  # floor concrete_painted vs paper: MuJoCo takes the larger sliding friction
+    assert scrapes[-1].time_s < 1.5 * 1.5 / (mu * G)
+    assert all(e.other == "floor" and e.material_object == "paper" for e in scrapes)
+
+
+def test_rolling_cylinder_rolls(world):
+    # An AA battery lying on its side (axis along y), rolling along x without slipping:
+    # v = w r; qvel's angular part is in the body frame, where the axis is z.
+    r = 0.0072
+    q = (math.cos(math.pi / 4), math.sin(math.pi / 4), 0.0, 0.0)  # axis along y
+    inst, events, vz, dt = _run(world, "flashlight_battery", r + 0.0005, quat=q,
+                                qvel=[0.5, 0, 0, 0, 0, -0.5 / r], steps=500)
+    kinds = [e.kind for e in events]
+    assert kinds.count("roll") >= 5
+    assert kinds.count("roll") > kinds.count("scrape")
