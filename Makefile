@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 FALLGEN := $(VENV)/bin/fallgen
 export MUJOCO_GL ?= egl
 CONFIG ?= configs/full.toml
-OUT ?= build
+WORKERS ?= $(shell nproc 2>/dev/null || echo 2)
 
 .PHONY: setup demo test test-fast bench rehearse generate dataset smoke clean lint
 
@@ -33,7 +33,7 @@ bench: setup
 	@echo "bench: no stage has a benchmark yet (rehearse, audio and generate bring them: issues 3-8)"
 
 rehearse: setup
-	@echo "rehearse: the rehearsal phase is not built yet (issue 3)"; exit 1
+	$(FALLGEN) rehearse --config $(CONFIG) --workers $(WORKERS)
 
 generate: setup
 	@echo "generate: the generation phase is not built yet (issue 6)"; exit 1
@@ -41,7 +41,8 @@ generate: setup
 dataset: rehearse generate
 
 smoke: setup
-	@echo "smoke: the tiny end-to-end build needs rehearse and generate (issues 3-8)"; exit 1
+	$(FALLGEN) rehearse --config configs/smoke.toml --workers $(WORKERS)
+	@echo "smoke: generation (issue 6) and validation (issue 7) are not built yet"
 
 lint: setup
 	$(PY) -m ruff check src tests || true

@@ -11,7 +11,7 @@ from fallgen.cli import main
 
 COMMANDS = [[], ["rooms"], ["rooms", "list"], ["rooms", "check"], ["rooms", "show"],
             ["rooms", "export"], ["objects"], ["objects", "list"], ["objects", "show"], ["materials"],
-            ["materials", "list"]]
+            ["materials", "list"], ["rehearse"]]
 
 
 def run(capsys, *args: str) -> tuple[int, str, str]:
@@ -138,3 +138,32 @@ def test_malformed_file_gives_one_line_error(capsys, data_copy, tmp_path, name):
 def test_bad_data_dir(capsys, tmp_path):
     code, _, err = run(capsys, "rooms", "list", "--data-dir", str(tmp_path))
     assert code == 2 and "not a fallgen data directory" in err
+
+
+# --- rehearse ------------------------------------------------------------------------------------
+
+def test_rehearse_bad_input(capsys, tmp_path):
+    repo = Path(__file__).resolve().parents[1]
+    out = tmp_path / "out"
+    code, _, err = run(capsys, "rehearse", "-c", str(repo / "configs/smoke.toml"),
+                       "--rooms", "no_such_room*", "--out", str(out))
+    assert code == 2 and err.count("\n") == 1 and "no_such_room" in err
+    broken = tmp_path / "broken.toml"
+    broken.write_text((repo / "configs/smoke.toml").read_text().replace(
+        "events_per_zone = 1", ""))
+    code, _, err = run(capsys, "rehearse", "-c", str(broken), "--out", str(out))
+    assert code == 2 and err.count("\n") == 1
+    assert "broken.toml" in err and "rehearse.events_per_zone" in err
+    assert not out.exists()
+
+
+def test_rehearse_runs(capsys, tmp_path):
+    repo = Path(__file__).resolve().parents[1]
+    cfg = tmp_path / "tiny.toml"
+    cfg.write_text((repo / "configs/smoke.toml").read_text().replace(
+        'rooms = "kitchen_galley-l1-m1,study_office-l1-m1"',
+        'rooms = "kitchen_galley-l1-m1"\nzones = "z0[0-1]"'))
+    code, out, err = run(capsys, "rehearse", "-c", str(cfg), "--out", str(tmp_path / "o"))
+    assert code == 0, err
+    assert (tmp_path / "o/rehearsal/kitchen_galley-l1-m1.parquet").exists()
+    assert "rehearsal by zone kind" in out and "events kept of" in out

@@ -73,6 +73,57 @@ def _variants(world, pattern: str):
     return vs
 
 
+# --- rehearse -----------------------------------------------------------------------------------
+
+@app.command()
+def rehearse(
+    config: Annotated[Path, typer.Option("--config", "-c", help="Build config (configs/*.toml).")],
+    rooms: Annotated[Optional[str], typer.Option(help="Glob(s) over variant ids, comma-separated "
+                                                 "(default: the config's).")] = None,
+    workers: Annotated[int, typer.Option(min=1, help="Worker processes.")] = 1,
+    out: Annotated[Optional[Path], typer.Option(help="Output directory (default: the config's "
+                                                "build.out).")] = None,
+    force: Annotated[bool, typer.Option(help="Redo variants that are already done.")] = False,
+    data_dir: DataDir = None,
+) -> None:
+    """Rehearsal phase: drop objects into every fall zone, keep those that settle inside it."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, \
+        TimeElapsedColumn
+
+    from fallgen.config import load_config
+    from fallgen.physics.rehearse import rehearsal_dir, rehearse as run, summarize
+
+    cfg = load_config(config)
+    world = _world(data_dir)
+    pattern = rooms or cfg.rehearse.rooms
+    vs = _variants(world, pattern)
+    dest = rehearsal_dir(cfg, out)
+    with Progress(TextColumn("rehearse"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  TextColumn("{task.description}"), console=console) as bar:
+        task = bar.add_task("", total=len(vs))
+
+        def tick(vid: str, stats: dict | None) -> None:
+            note = "skipped (done)" if stats is None else \
+                f"{stats['reasons'].get('kept', 0)}/{stats['trials']} kept"
+            bar.update(task, advance=1, description=f"{vid}: {note}")
+
+        stats = run(world, cfg, [v.id for v in vs], out=dest, workers=workers, force=force,
+                    progress=tick)
+    totals = summarize(stats)
+    for title, table in (("zone kind", totals["zone_kind"]), ("category", totals["category"])):
+        t = Table(title=f"rehearsal by {title}")
+        for col in (title, "trials", "kept", "rate", "main rejections"):
+            t.add_column(col)
+        for key, c in sorted(table.items()):
+            n = sum(c.values())
+            rej = ", ".join(f"{r} {k}" for r, k in c.most_common() if r != "kept")[:60]
+            t.add_row(key, str(n), str(c["kept"]), f"{c['kept'] / n:.0%}", rej)
+        console.print(t)
+    n = sum(s.trials for s in stats)
+    k = sum(s.reasons["kept"] for s in stats)
+    console.print(f"{k} events kept of {n} trials in {len(stats)} variants -> {dest}")
+
+
 # --- rooms --------------------------------------------------------------------------------------
 
 @rooms_app.command("list")

@@ -31,6 +31,7 @@ class SettleResult:
     min_z_m: float  # lowest body-origin height seen
     unstable: bool  # NaN/inf state or a MuJoCo warning
     warnings: dict[str, int]
+    steps: int = 0  # steps simulated
 
 
 _WATCHED = ("mjWARN_BADQACC", "mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_CONTACTFULL",
@@ -48,17 +49,31 @@ def mujoco_warnings(data: mujoco.MjData) -> dict[str, int]:
 
 
 def simulate_until_settled(model: mujoco.MjModel, data: mujoco.MjData, body_id: int,
-                           criteria: SettleCriteria = SettleCriteria()) -> SettleResult:
-    """Step ``data`` until body ``body_id`` (with a free joint) settles or times out."""
+                           criteria: SettleCriteria = SettleCriteria(),
+                           recorder=None, max_steps: int | None = None) -> SettleResult:
+    """Step ``data`` until body ``body_id`` (with a free joint) settles or times out.
+
+    ``recorder`` (e.g. a :class:`~fallgen.physics.contacts.ContactRecorder`) gets
+    ``before_step``/``after_step`` around every step. ``max_steps`` replays exactly that many
+    steps (the settle test still runs but does not stop the loop).
+    """
     jnt = model.body_jntadr[body_id]
     qadr, vadr = model.jnt_qposadr[jnt], model.jnt_dofadr[jnt]
     dt = model.opt.timestep
     hold_steps = max(1, int(round(criteria.hold_s / dt)))
-    max_steps = int(round(criteria.timeout_s / dt))
+    replay = max_steps is not None
+    if max_steps is None:
+        max_steps = int(round(criteria.timeout_s / dt))
     calm, settled_at = 0, None
     max_speed, min_z, unstable = 0.0, np.inf, False
+    steps = 0
     for step in range(max_steps):
+        if recorder is not None:
+            recorder.before_step(data)
         mujoco.mj_step(model, data)
+        steps += 1
+        if recorder is not None:
+            recorder.after_step(data)
         v = data.qvel[vadr:vadr + 6]
         z = data.qpos[qadr + 2]
         if not (np.isfinite(v).all() and np.isfinite(z)) or mujoco_warnings(data):
@@ -67,9 +82,10 @@ def simulate_until_settled(model: mujoco.MjModel, data: mujoco.MjData, body_id: 
         lin, ang = float(np.linalg.norm(v[:3])), float(np.linalg.norm(v[3:]))
         max_speed, min_z = max(max_speed, lin), min(min_z, float(z))
         calm = calm + 1 if (lin < criteria.lin_tol_mps and ang < criteria.ang_tol_radps) else 0
-        if calm >= hold_steps:
+        if calm >= hold_steps and settled_at is None:
             settled_at = (step + 1 - hold_steps) * dt
-            break
+            if not replay:
+                break
     return SettleResult(
         settled=settled_at is not None and not unstable,
         time_s=settled_at if settled_at is not None else data.time,
@@ -79,4 +95,5 @@ def simulate_until_settled(model: mujoco.MjModel, data: mujoco.MjData, body_id: 
         min_z_m=min_z,
         unstable=unstable,
         warnings=mujoco_warnings(data),
+        steps=steps,
     )

@@ -1,0 +1,267 @@
+"""One rehearsal trial: drop an object into a fall zone and keep it if it settles inside.
+
+A trial depends only on its seed, ``SeedSequence(root_seed, spawn_key=(room_key, zone, trial))``
+with ``room_key`` a stable hash of the variant id, so results do not depend on which rooms run,
+in which order, or on how many workers. Distractors are dropped first (all together) and frozen
+where they settle; occluders are placed at rest on the zone's support; then the target falls
+with the others static, which keeps :func:`replay` bit-identical (a moving body elsewhere would
+perturb the target's trajectory at the 1e-9 level).
+"""
+
+from __future__ import annotations
+
+import math
+import zlib
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from fallgen.config import RehearseConfig
+from fallgen.physics.contacts import ContactEvent, ContactRecorder
+from fallgen.physics.events import FallEvent, ObjectSpec, Placement
+from fallgen.physics.settle import SettleCriteria, SettleResult, mujoco_warnings, \
+    simulate_until_settled
+from fallgen.world.library import World
+from fallgen.world.objects import ObjectInstance
+from fallgen.world.rooms import RoomVariant, Zone
+from fallgen.world.scene import PlacedObject, build_scene
+
+#: Why a trial was not kept; every trial ends with exactly one of these (or "kept").
+REASONS = ("kept", "does_not_fit", "start_overlap", "unstable", "not_settled", "left_room",
+           "tunnelled", "outside_zone")
+
+
+def room_key(variant_id: str) -> int:
+    """A stable integer for a room variant's id (CRC-32), used in seed spawn keys."""
+    return zlib.crc32(variant_id.encode("utf-8"))
+
+
+def trial_rng(root_seed: int, variant_id: str, zone_index: int, trial: int) -> np.random.Generator:
+    ss = np.random.SeedSequence(root_seed, spawn_key=(room_key(variant_id), zone_index, trial))
+    return np.random.default_rng(ss)
+
+
+@dataclass(frozen=True)
+class TrialOutcome:
+    reason: str  # one of REASONS
+    event: FallEvent | None
+    category: str
+
+
+def _radius(inst: ObjectInstance) -> float:
+    """Radius of a sphere around the body origin that holds the object."""
+    v = inst.geometry.vertices * inst.scale
+    return float(np.linalg.norm(v, axis=1).max())
+
+
+def _uniform_quat(rng: np.random.Generator) -> tuple[float, float, float, float]:
+    q = rng.normal(size=4)
+    q /= np.linalg.norm(q)
+    return tuple(float(x) for x in q)
+
+
+def _spec(inst: ObjectInstance) -> ObjectSpec:
+    return ObjectSpec(inst.category, inst.variant, inst.material.name, inst.scale)
+
+
+def _instance(world: World, s: ObjectSpec) -> ObjectInstance:
+    return world.categories.instance(s.category, s.variant, s.material, s.scale)
+
+
+def _fits(world: World, zone: Zone, cid: str) -> bool:
+    lib = world.categories
+    cat = lib[cid]
+    size = lib.nominal_size_m(cid) * cat.scale[1]
+    foot = 2 * min(zone.volume.half[0], zone.volume.half[1])
+    if size > 1.5 * foot:
+        return False
+    if not zone.open_above:
+        thick = min(float(np.sort(lib.geometry(cid, v.name).extents)[0]) for v in cat.variants)
+        return thick * cat.scale[1] < (zone.drop.zmax - zone.drop.zmin) * 0.8
+    return True
+
+
+def _xy(rng: np.random.Generator, zone: Zone, margin: float) -> tuple[float, float]:
+    hx, hy = (max(zone.drop.half[i] - margin, 0.0) for i in (0, 1))
+    lx, ly = rng.uniform(-hx, hx), rng.uniform(-hy, hy)
+    c, s = math.cos(zone.drop.yaw), math.sin(zone.drop.yaw)
+    return zone.drop.center[0] + c * lx - s * ly, zone.drop.center[1] + s * lx + c * ly
+
+
+def _occluders(world: World, zone: Zone, rng: np.random.Generator) -> list[Placement]:
+    out = []
+    for name in zone.occluders:
+        inst = world.categories.sample(rng, name)
+        lo = (inst.geometry.vertices * inst.scale).min(axis=0)
+        ext = inst.extents_m
+        x, y = _xy(rng, zone, 0.5 * float(max(ext[0], ext[1])))
+        yaw = rng.uniform(-math.pi, math.pi)
+        out.append(Placement(_spec(inst), (x, y, zone.volume.zmin - float(lo[2]) + 1e-4),
+                             (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))))
+    return out
+
+
+def _settle_distractors(world: World, variant: RoomVariant, zone: Zone, target_cid: str,
+                        occluders: list[Placement], cfg: RehearseConfig,
+                        rng: np.random.Generator) -> list[Placement]:
+    if zone.distractors == 0:
+        return []
+    lib = world.categories
+    cands = [c for c in lib.distractors_for(target_cid) if _fits(world, zone, c)] or [target_cid]
+    objs = []
+    for k in range(zone.distractors):
+        inst = lib.sample(rng, cands[int(rng.integers(len(cands)))])
+        r = _radius(inst)
+        x, y = _xy(rng, zone, r)
+        z = zone.drop.zmin + r + 0.02 + 0.12 * k
+        if z + r > zone.drop.zmax:
+            break
+        objs.append(PlacedObject(f"d{k}", inst, (x, y, z), _uniform_quat(rng)))
+    statics = [PlacedObject(f"o{k}", _instance(world, p.object), p.pos, p.quat, free=False)
+               for k, p in enumerate(occluders)]
+    scene = build_scene(variant, world.materials, objs + statics)
+    data = scene.data()
+    mujoco.mj_forward(scene.model, data)
+    for _ in range(int(round(2.0 / scene.model.opt.timestep))):
+        mujoco.mj_step(scene.model, data)
+    if mujoco_warnings(data) or not np.isfinite(data.qpos).all():
+        return []
+    lx, ly, h = variant.size_m
+    out = []
+    for o in objs:
+        b = scene.object_body[o.name]
+        adr = scene.model.jnt_qposadr[scene.model.body_jntadr[b]]
+        pos, quat = data.qpos[adr:adr + 3], data.qpos[adr + 3:adr + 7]
+        if 0 <= pos[0] <= lx and 0 <= pos[1] <= ly and -0.01 <= pos[2] <= h:
+            out.append(Placement(_spec(o.instance), tuple(map(float, pos)),
+                                 tuple(map(float, quat / np.linalg.norm(quat)))))
+    return out
+
+
+def _scene_objects(world: World, target: ObjectInstance, start_pos, start_quat,
+                   distractors, occluders) -> list[PlacedObject]:
+    objs = [PlacedObject("target", target, tuple(start_pos), tuple(start_quat))]
+    objs += [PlacedObject(f"d{k}", _instance(world, p.object), p.pos, p.quat, free=False)
+             for k, p in enumerate(distractors)]
+    objs += [PlacedObject(f"o{k}", _instance(world, p.object), p.pos, p.quat, free=False)
+             for k, p in enumerate(occluders)]
+    return objs
+
+
+def _simulate(world: World, variant: RoomVariant, objs: list[PlacedObject], linvel, angvel,
+              criteria: SettleCriteria, max_steps: int | None = None
+              ) -> tuple[SettleResult, list[ContactEvent], np.ndarray, float, bool]:
+    scene = build_scene(variant, world.materials, objs)
+    m, d = scene.model, scene.data()
+    b = scene.object_body["target"]
+    vadr = m.jnt_dofadr[m.body_jntadr[b]]
+    d.qvel[vadr:vadr + 3] = linvel
+    d.qvel[vadr + 3:vadr + 6] = angvel
+    mujoco.mj_forward(m, d)
+    overlap = any(
+        (m.geom_bodyid[d.contact[i].geom1] == b) != (m.geom_bodyid[d.contact[i].geom2] == b)
+        and d.contact[i].dist < -1e-3 for i in range(d.ncon))
+    rec = ContactRecorder(m, b, scene.geom_owner, scene.geom_material)
+    res = simulate_until_settled(m, d, b, criteria, recorder=rec, max_steps=max_steps)
+    return res, rec.finish(), d.xipos[b].copy(), float(m.body_mass[b]), overlap
+
+
+def criteria_of(cfg: RehearseConfig) -> SettleCriteria:
+    return SettleCriteria(cfg.settle_lin_mps, cfg.settle_ang_radps, cfg.settle_hold_s,
+                          cfg.timeout_s)
+
+
+def run_trial(world: World, variant: RoomVariant, zone: Zone, trial: int,
+              cfg: RehearseConfig, root_seed: int) -> TrialOutcome:
+    """Run one seeded trial; the outcome says whether it was kept, and why not."""
+    rng = trial_rng(root_seed, variant.id, zone.index, trial)
+    lib = world.categories
+    cands = [c for c in lib.ids("target") if _fits(world, zone, c)]
+    if not cands:
+        return TrialOutcome("does_not_fit", None, "")
+    cid = cands[int(rng.integers(len(cands)))]
+    target = lib.sample(rng, cid)
+    occluders = _occluders(world, zone, rng)
+    distractors = _settle_distractors(world, variant, zone, cid, occluders, cfg, rng)
+    r = _radius(target)
+    x, y = _xy(rng, zone, r)
+    if zone.open_above:
+        lo = max(cfg.drop_height_m[0], zone.drop.zmin + r)
+        hi = min(cfg.drop_height_m[1], zone.drop.zmax - r)
+    else:
+        lo, hi = zone.drop.zmin + r, zone.drop.zmax - r
+    quat = _uniform_quat(rng)
+    if hi < lo:
+        if not zone.open_above:
+            # Too tall for the cavity in a random orientation: lay it flat instead.
+            ext = target.extents_m
+            thin = int(np.argmin(ext))
+            half = float(ext[thin]) / 2 + 0.002
+            lo = hi = zone.drop.zmin + half + 0.005
+            if lo + half > zone.drop.zmax:
+                return TrialOutcome("does_not_fit", None, cid)
+            quat = {0: (math.cos(math.pi / 4), 0.0, math.sin(math.pi / 4), 0.0),
+                    1: (math.cos(math.pi / 4), math.sin(math.pi / 4), 0.0, 0.0),
+                    2: (1.0, 0.0, 0.0, 0.0)}[thin]
+        else:
+            lo = hi
+    z = float(rng.uniform(lo, hi))
+    linvel = (float(rng.normal(0, cfg.push_speed_mps)), float(rng.normal(0, cfg.push_speed_mps)),
+              0.0)
+    angvel = tuple(float(a) for a in rng.normal(0, cfg.spin_radps, 3))
+    start = (float(x), float(y), z)
+    objs = _scene_objects(world, target, start, quat, distractors, occluders)
+    res, contacts, com, mass, overlap = _simulate(world, variant, objs, linvel, angvel,
+                                                  criteria_of(cfg))
+    if overlap:
+        return TrialOutcome("start_overlap", None, cid)
+    reason = _judge(variant, zone, res, com)
+    if reason != "kept":
+        return TrialOutcome(reason, None, cid)
+    event = FallEvent(
+        event_id=f"{variant.id}/{zone.id}/t{trial:04d}", room_variant=variant.id,
+        room_kind=variant.kind, zone=zone.id, zone_kind=zone.kind, trial=trial,
+        root_seed=root_seed, target=_spec(target), audio_material=target.material.audio,
+        mass_kg=mass, start_pos=start, start_quat=quat, start_linvel=linvel,
+        start_angvel=angvel, settle_pos=tuple(map(float, res.pos)),
+        settle_quat=tuple(map(float, res.quat)), settle_com=tuple(map(float, com)),
+        settle_time_s=float(res.time_s), steps=res.steps, distractors=tuple(distractors),
+        occluders=tuple(occluders), contacts=tuple(contacts))
+    return TrialOutcome("kept", event, cid)
+
+
+def _judge(variant: RoomVariant, zone: Zone, res: SettleResult, com: np.ndarray) -> str:
+    lx, ly, h = variant.size_m
+    if res.unstable or not np.isfinite(com).all():
+        return "unstable"
+    if not (0 <= com[0] <= lx and 0 <= com[1] <= ly and com[2] <= h):
+        return "left_room"
+    if com[2] < -0.01 or res.min_z_m < -0.05:
+        return "tunnelled"
+    if not res.settled:
+        return "not_settled"
+    if not zone.volume.contains(com[None, :])[0]:
+        return "outside_zone"
+    return "kept"
+
+
+@dataclass(frozen=True)
+class Replay:
+    settle_pos: np.ndarray
+    settle_quat: np.ndarray
+    settle_com: np.ndarray
+    contacts: tuple[ContactEvent, ...]
+    settled: bool
+
+
+def replay(world: World, event: FallEvent, criteria: SettleCriteria = SettleCriteria()) -> Replay:
+    """Rebuild a fall event's scene and re-simulate it from its recorded start state, for
+    exactly the recorded number of steps. Bit-identical to the rehearsal under the same MuJoCo."""
+    variant = world.variant(event.room_variant)
+    target = _instance(world, event.target)
+    objs = _scene_objects(world, target, event.start_pos, event.start_quat, event.distractors,
+                          event.occluders)
+    res, contacts, com, _, _ = _simulate(world, variant, objs, event.start_linvel,
+                                         event.start_angvel, criteria, max_steps=event.steps)
+    return Replay(res.pos, res.quat, com, tuple(contacts), res.settled)
