@@ -23,6 +23,11 @@ import numpy as np
 KINDS = ("impact", "scrape", "roll")
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                     a[0] * b[1] - a[1] * b[0]])
+
+
 @dataclass(frozen=True)
 class ContactParams:
     impact_speed_mps: float = 0.05  # slower approaches are resting contact, not impacts
@@ -92,56 +97,64 @@ class ContactRecorder:
         self.open: dict[int, _Episode] = {}
         self.events: list[ContactEvent] = []
         self._force = np.zeros(6)
-        self._prev_v = np.zeros(3)
-        self._prev_w = np.zeros(3)
-        self._prev_com = np.zeros(3)
+        self.vadr = model.jnt_dofadr[model.body_jntadr[body_id]]
+        self._prev = (np.zeros(3), np.zeros(3), np.zeros(3))
 
     # -- kinematics ---------------------------------------------------------------------------
-    def _body_velocity(self, d: mujoco.MjData) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """World linear velocity of the centre of mass, world angular velocity, and the com."""
-        vel = np.zeros(6)
-        mujoco.mj_objectVelocity(self.m, d, mujoco.mjtObj.mjOBJ_BODY, self.body, vel, 0)
-        # vel = [angular, linear] at the body's centre of mass, world-aligned.
-        return vel[3:].copy(), vel[:3].copy(), d.xipos[self.body].copy()
+    # The body has a free joint: qvel[0:3] is the world velocity of the body origin and
+    # qvel[3:6] the angular velocity in the body frame; the velocity of a point p is
+    # v + (R w) x (p - x). Plain arithmetic here: this runs at every step.
+
+    def _state(self, d: mujoco.MjData) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        q = d.qvel[self.vadr:self.vadr + 6]
+        w = d.xmat[self.body].reshape(3, 3) @ q[3:]
+        return q[:3].copy(), w, d.xpos[self.body].copy()
 
     def before_step(self, d: mujoco.MjData) -> None:
-        self._prev_v, self._prev_w, self._prev_com = self._body_velocity(d)
+        self._prev = self._state(d)
 
     def after_step(self, d: mujoco.MjData) -> None:
         self.step += 1
-        v, w, com = self._body_velocity(d)
+        if d.ncon == 0:
+            if self.open:
+                self._close_stale()
+            return
+        geoms = d.contact.geom[:d.ncon]
+        mine_mask = self.m.geom_bodyid[geoms] == self.body
+        hits = np.nonzero(mine_mask[:, 0] != mine_mask[:, 1])[0]
+        if hits.size == 0:
+            if self.open:
+                self._close_stale()
+            return
+        v, w, x = self._state(d)
         xmat = d.xmat[self.body].reshape(3, 3)
-        xpos = d.xpos[self.body]
         seen: dict[int, tuple] = {}
-        gb = self.m.geom_bodyid
-        for i in range(d.ncon):
+        for i in hits:
             c = d.contact[i]
-            g1, g2 = int(c.geom1), int(c.geom2)
-            if gb[g1] == self.body and gb[g2] != self.body:
+            g1, g2 = int(geoms[i, 0]), int(geoms[i, 1])
+            if mine_mask[i, 0]:
                 mine, other, sign = g1, g2, -1.0
-            elif gb[g2] == self.body and gb[g1] != self.body:
-                mine, other, sign = g2, g1, 1.0
             else:
-                continue
-            mujoco.mj_contactForce(self.m, d, i, self._force)
+                mine, other, sign = g2, g1, 1.0
+            mujoco.mj_contactForce(self.m, d, int(i), self._force)
             fn = float(self._force[0])
-            n = sign * np.asarray(c.frame[:3])  # frame normal points geom1 -> geom2
-            pos = np.asarray(c.pos).copy()
             if other in seen:  # several contact points with one geom: sum forces
                 s = seen[other]
                 seen[other] = (s[0], s[1], s[2], s[3] + fn)
             else:
-                seen[other] = (mine, pos, n, fn)
+                n = sign * np.asarray(c.frame[:3])  # frame normal points geom1 -> geom2
+                seen[other] = (mine, np.asarray(c.pos).copy(), n, fn)
         for other, (mine, pos, n, fn) in seen.items():
-            vp = v + np.cross(w, pos - com)  # object's contact point velocity (others static)
+            vp = v + _cross(w, pos - x)  # object's contact point velocity (others static)
             vn = float(vp @ n)  # > 0 separating
             slip = float(np.linalg.norm(vp - vn * n))
             ep = self.open.get(other)
             if ep is None:
-                vp0 = self._prev_v + np.cross(self._prev_w, pos - self._prev_com)
+                pv, pw, px = self._prev
+                vp0 = pv + _cross(pw, pos - px)
                 ep = _Episode(
                     start_step=self.step, geom_object=mine, point_world=pos,
-                    point_object=xmat.T @ (pos - xpos), normal=n,
+                    point_object=xmat.T @ (pos - x), normal=n,
                     approach_mps=max(0.0, -float(vp0 @ n)),
                     s_start_point=pos, s_start_step=self.step,
                 )
@@ -155,7 +168,11 @@ class ContactRecorder:
                     ep.compressing = False
             else:
                 self._sample(ep, other, pos, n, fn, vn, slip)
-        for other in [g for g, ep in self.open.items() if self.step - ep.last_seen >= self.p.gap_steps]:
+        self._close_stale()
+
+    def _close_stale(self) -> None:
+        for other in [g for g, ep in self.open.items()
+                      if self.step - ep.last_seen >= self.p.gap_steps]:
             self._close(other)
 
     # -- events -------------------------------------------------------------------------------
