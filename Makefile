@@ -30,7 +30,8 @@ test-fast: setup
 	$(PY) -m pytest -q -n 2 -m "not slow"
 
 bench: setup
-	@echo "bench: no stage has a benchmark yet (rehearse, audio and generate bring them: issues 3-8)"
+	@mkdir -p build
+	$(PY) bench/rehearse_bench.py | tee build/bench-rehearse.json
 
 rehearse: setup
 	$(FALLGEN) rehearse --config $(CONFIG) --workers $(WORKERS)
