@@ -99,3 +99,15 @@ def test_same_bytes_whatever_workers_and_order(world, tmp_path):
     mtime = (a / f"{ROOMS[0]}.parquet").stat().st_mtime_ns
     rehearse(world, cfg, ROOMS, out=a, workers=1)
     assert (a / f"{ROOMS[0]}.parquet").stat().st_mtime_ns == mtime
+
+
+def test_spinning_fork_does_not_diverge(world):
+    """Regression: this fork, spinning at ~7 rad/s when it hits the floor, went NaN with the
+    Euler integrator; implicitfast keeps it stable."""
+    from fallgen.physics.drop import run_trial
+
+    v = world.variant("kitchen_island-l1-m1")
+    cfg = RehearseConfig(drop_height_m=(1.5, 2.8), events_per_zone=8, max_trials_per_zone=60)
+    out = run_trial(world, v, v.zone("z00"), 9, cfg, 2022)
+    assert out.category == "fork"
+    assert out.reason != "unstable"

@@ -66,5 +66,10 @@ def test_drop_settles_in_zone(world, room_kind, kind):
         # (soft contacts let a fast impact penetrate ~1 cm for a moment), and it rests on top.
         assert res.min_z_m > zone.volume.zmin - MIN_THICKNESS_M, where
         assert res.pos[2] > zone.volume.zmin - 0.003, where
-        assert zone.volume.contains(res.pos[None, :], tol=0.05)[0], \
+        # It rests on that surface: inside the zone for a table top or a shelf (which it could
+        # leave only by falling off); anywhere on the floor for a floor zone (it may bounce
+        # out of the marked rectangle, which the rehearsal then rejects).
+        grow = 0.05 if kind != "floor" else 1.5
+        assert zone.volume.contains(res.pos[None, :], tol=grow)[0], \
             f"{where}: settled at {np.round(res.pos, 3)} outside the zone"
+        assert res.pos[2] < zone.volume.zmin + 0.1, where

@@ -24,6 +24,7 @@ def test_all_variants_compile(world):
         assert m.opt.timestep == pytest.approx(0.002)
         assert m.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC
         assert m.opt.impratio == pytest.approx(10.0)
+        assert m.opt.integrator == mujoco.mjtIntegrator.mjINT_IMPLICITFAST
         assert (m.geom_margin == 0).all()
         # Contact labels: every geom has an owner and a known material.
         assert len(scene.geom_owner) == m.ngeom
