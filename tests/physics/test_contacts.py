@@ -96,3 +96,8 @@ def test_rolling_cylinder_rolls(world):
     kinds = [e.kind for e in events]
     assert kinds.count("roll") >= 5
     assert kinds.count("roll") > kinds.count("scrape")
+    rolls = [e for e in events if e.kind == "roll"]
+    # The contact stays on the floor in the world but moves around the battery's surface.
+    assert all(abs(e.point_world[2]) < 2e-3 for e in rolls)
+    po = np.array([e.point_object for e in rolls])
+    assert np.ptp(po[:, 0]) + np.ptp(po[:, 1]) > r  # body frame: the axis is z

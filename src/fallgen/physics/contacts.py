@@ -78,6 +78,7 @@ class _Episode:
     s_start_point: np.ndarray | None = None
     s_start_step: int = 0
     s_point: np.ndarray | None = None
+    s_point_object: np.ndarray | None = None
     events: list[ContactEvent] = field(default_factory=list)
 
 
@@ -167,7 +168,7 @@ class ContactRecorder:
                         ep.compression_steps * self.dt >= self.p.max_compression_s:
                     ep.compressing = False
             else:
-                self._sample(ep, other, pos, n, fn, vn, slip)
+                self._sample(ep, other, pos, xmat.T @ (pos - x), n, fn, vn, slip)
         self._close_stale()
 
     def _close_stale(self) -> None:
@@ -176,12 +177,12 @@ class ContactRecorder:
             self._close(other)
 
     # -- events -------------------------------------------------------------------------------
-    def _sample(self, ep: _Episode, other: int, pos, n, fn, vn, slip) -> None:
+    def _sample(self, ep: _Episode, other: int, pos, pos_object, n, fn, vn, slip) -> None:
         ep.s_steps += 1
         ep.s_force += fn
         ep.s_slip += slip
         ep.s_normal_speed += abs(vn)
-        ep.s_point = pos
+        ep.s_point, ep.s_point_object = pos, pos_object
         if ep.s_start_point is None:
             ep.s_start_point, ep.s_start_step = pos, self.step
         if ep.s_steps >= self.sample_steps:
@@ -196,12 +197,11 @@ class ContactRecorder:
         kind = "scrape" if slip >= self.p.slip_speed_mps else (
             "roll" if travel >= self.p.roll_speed_mps else None)
         if kind is not None:
-            xm = None
             ep.events.append(self._event(
                 time=(ep.s_start_step - 1) * self.dt, kind=kind, ep=ep, other=other,
                 point=ep.s_point, normal=n, normal_speed=ep.s_normal_speed / ep.s_steps,
                 impulse=ep.s_force * self.dt, slip=slip, duration=dur,
-                mean_force=ep.s_force / ep.s_steps, point_object=xm))
+                mean_force=ep.s_force / ep.s_steps, point_object=ep.s_point_object))
         ep.s_steps, ep.s_force, ep.s_slip, ep.s_normal_speed = 0, 0.0, 0.0, 0.0
         ep.s_start_point, ep.s_start_step = None, self.step + 1
 
