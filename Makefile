@@ -21,7 +21,8 @@ demo: setup
 	$(FALLGEN) rooms export kitchen_galley-l1-m1 -o demo/kitchen_galley-l1-m1.xml
 	$(FALLGEN) objects list
 	$(FALLGEN) objects show -o demo/objects.png
-	@echo "demo: room plans in demo/rooms/, objects in demo/objects.png, MJCF in demo/ (python -m mujoco.viewer --mjcf=demo/kitchen_galley-l1-m1.xml)"
+	$(FALLGEN) rehearse --config configs/demo.toml
+	@echo "demo: room plans in demo/rooms/, objects in demo/objects.png, fall events in demo/rehearsal/, MJCF in demo/ (python -m mujoco.viewer --mjcf=demo/kitchen_galley-l1-m1.xml)"
 
 test: setup
 	$(PY) -m pytest -q -n 2
