@@ -94,6 +94,8 @@ MASS_G: dict[tuple[str, str, str], tuple[float, float]] = {
     ("cup", "*", "plastic_hard"): (40, 200),
     # cork coaster 4-10 g; stone/ceramic absorbent coaster 150-200 g; wooden 30-60 g
     ("coaster", "*", "wood_soft/cork"): (3, 15),
+    # pulpboard beer mats (107 mm, 1.5-2 mm): 6-12 g
+    ("coaster", "pulpboard", "cardboard"): (5, 14),
     ("coaster", "*", "ceramic"): (100, 300),
     ("coaster", "*", "stone"): (100, 300),
     ("coaster", "*", "wood_medium"): (20, 80),
@@ -110,6 +112,8 @@ MASS_G: dict[tuple[str, str, str], tuple[float, float]] = {
     ("toy", "car", "wood_medium"): (40, 200),
     ("toy", "duck", "*"): (20, 80),
     ("toy", "foam_ball", "*"): (5, 30),
+    # stuffed fabric balls 8-10 cm: 40-120 g
+    ("toy", "plush_ball", "*"): (40, 120),
     # ceramic cereal bowl 300-450 g, rice bowl 150-250 g; glass bowls 300-1500 g;
     # wooden salad bowl 300-600 g; plastic bowls 100-600 g
     ("bowl", "*", "ceramic"): (150, 550),
@@ -127,6 +131,8 @@ MASS_G: dict[tuple[str, str, str], tuple[float, float]] = {
     # wooden jewellery box 15 x 10 x 7 cm 250-500 g; empty tea tin 50-100 g
     ("box", "jewellery", "*"): (150, 700),
     ("box", "tea_tin", "*"): (40, 150),
+    # small rigid cardboard gift boxes (12 x 9 x 6 cm, 1.5 mm board): 30-70 g
+    ("box", "gift", "*"): (25, 80),
     # Peugeot-style wooden mills: 12 cm ~100-150 g, 22 cm ~300 g, 30 cm ~400-500 g
     ("pepper_mill", "*", "*"): (80, 600),
     # glass jar grinders 200-350 g; acrylic grinders 100-200 g
@@ -357,7 +363,7 @@ def test_category_fields_and_material_references() -> None:
         assert isinstance(c["description"], str) and c["description"], cid
         lo, hi = c["scale"]
         assert 0 < lo <= hi < 2, cid
-        assert 1 <= len(c["variants"]) <= 3, cid
+        assert 1 <= len(c["variants"]) <= 5, cid
         names = [v["name"] for v in c["variants"]]
         assert len(set(names)) == len(names), cid
         for mats in [c["materials"]] + [v["materials"] for v in c["variants"] if "materials" in v]:
