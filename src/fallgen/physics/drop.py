@@ -103,8 +103,7 @@ def _occluders(world: World, zone: Zone, rng: np.random.Generator) -> list[Place
 
 
 def _settle_distractors(world: World, variant: RoomVariant, zone: Zone, target_cid: str,
-                        occluders: list[Placement], cfg: RehearseConfig,
-                        rng: np.random.Generator) -> list[Placement]:
+                        occluders: list[Placement], rng: np.random.Generator) -> list[Placement]:
     if zone.distractors == 0:
         return []
     lib = world.categories
@@ -209,7 +208,7 @@ def run_trial(world: World, variant: RoomVariant, zone: Zone, trial: int,
     cid = cands[int(rng.integers(len(cands)))]
     target = lib.sample(rng, cid)
     occluders = _occluders(world, zone, rng)
-    distractors = _settle_distractors(world, variant, zone, cid, occluders, cfg, rng)
+    distractors = _settle_distractors(world, variant, zone, cid, occluders, rng)
     r = _radius(target)
     x, y = _xy(rng, zone, r)
     if zone.open_above:
