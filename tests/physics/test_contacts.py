@@ -53,19 +53,21 @@ def test_first_impact_matches_free_fall_and_momentum(world, cat):
     assert first.normal_speed_mps == pytest.approx(G * t_ff, rel=0.02)
     assert first.normal == pytest.approx((0.0, 0.0, 1.0), abs=1e-6)
     assert first.material_other == world.variant("study_loft-l1-m1").surfaces["floor"].impact_material
-    # The collision impulse is the momentum change of the body over the impact steps...
+    # The recorded impulse is that of the compression phase: m v for a square hit on the floor,
+    # whether the object then bounces or not (the whole contact delivers m v (1 + e)).
+    assert first.impulse_ns == pytest.approx(inst.mass_kg * first.normal_speed_mps, rel=0.05)
     k0 = int(round(first.time_s / dt))
-    k1 = k0 + max(1, int(round(first.duration_s / dt)))
-    dv = vz[k1 - 1] - vz[k0 - 1]
-    assert first.impulse_ns == pytest.approx(inst.mass_kg * dv, rel=0.05)
-    # ... m v (1 + e): within 15 % of m v for objects that barely bounce.
-    rebound = vz[k1 - 1] / first.normal_speed_mps
-    if rebound < 0.12:
-        assert first.impulse_ns == pytest.approx(inst.mass_kg * first.normal_speed_mps, rel=0.15)
+    k_end = next(k for k in range(k0, len(vz)) if vz[k] >= 0)  # first step moving up
+    total = inst.mass_kg * (vz[k_end] - vz[k0 - 1])
+    assert total >= first.impulse_ns * 0.95
+    rebound = vz[k_end + 2] / first.normal_speed_mps if k_end + 2 < len(vz) else 0.0
+    assert rebound < 0.9  # no energy gained
 
 
 def test_resting_contact_is_not_an_impact(world):
-    inst, events, vz, dt = _run(world, "cup", 0.3, steps=2500)
+    # (A bowl: a mug dropped upright may wobble on its rim like Euler's disk for ~3 s, making
+    # real, late, small impacts.)
+    inst, events, vz, dt = _run(world, "bowl", 0.3, steps=2500)
     impacts = [e for e in events if e.kind == "impact"]
     assert impacts and all(e.normal_speed_mps >= 0.05 for e in impacts)
     assert impacts[-1].time_s < 1.0  # nothing after it has settled (t up to 5 s)
@@ -74,9 +76,11 @@ def test_resting_contact_is_not_an_impact(world):
 
 def test_sliding_book_scrapes(world):
     # A book slid across the floor at 1.5 m/s: scrapes whose slip speed falls to zero by about
-    # v / (mu g). (MuJoCo's convex contact model lifts a sliding body by ~mu v_t, so it also
-    # hops: the impacts in between are real events of the simulation.)
+    # v / (mu g). MuJoCo's soft convex friction makes a sliding body hop and rock between its
+    # edges (re-contacts at up to ~0.35 m/s a few ms apart); those are part of the scrape, not
+    # impacts: none but the initial touch-down (the book starts 0.1 mm above the floor).
     inst, events, vz, dt = _run(world, "book", 0.0151, qvel=[1.5, 0, 0, 0, 0, 0], steps=600)
+    assert [e for e in events if e.kind == "impact" and e.time_s > 0.05] == []
     scrapes = [e for e in events if e.kind == "scrape"]
     assert len(scrapes) >= 5
     assert 0.5 < scrapes[0].tangential_speed_mps <= 1.5
@@ -101,3 +105,18 @@ def test_rolling_cylinder_rolls(world):
     assert all(abs(e.point_world[2]) < 2e-3 for e in rolls)
     po = np.array([e.point_object for e in rolls])
     assert np.ptp(po[:, 0]) + np.ptp(po[:, 1]) > r  # body frame: the axis is z
+
+
+def test_bounces_are_impacts_with_the_restitution(world):
+    # A golf ball dropped from 1 m bounces several times, each bounce an impact at e times the
+    # previous speed (e ~0.8: the ball is far softer than any floor, so it sets the bounce), at
+    # the ballistic interval 2 e v / g (plus the few steps of contact). None is mistaken for a
+    # sliding hop, and a bounce is not a scrape.
+    inst, events, vz, dt = _run(world, "golf_ball", 1.0, steps=2000)
+    imp = [e for e in events if e.kind == "impact"]
+    assert len(imp) >= 4
+    for a, b in zip(imp[:3], imp[1:4]):
+        e = b.normal_speed_mps / a.normal_speed_mps
+        assert 0.65 < e < 0.9, (a, b)
+        assert b.time_s - a.time_s == pytest.approx(2 * b.normal_speed_mps / G, abs=6 * dt)
+    assert [e for e in events if e.kind == "scrape" and e.time_s < imp[3].time_s] == []

@@ -72,4 +72,5 @@ def test_drop_settles_in_zone(world, room_kind, kind):
         grow = 0.05 if kind != "floor" else 1.5
         assert zone.volume.contains(res.pos[None, :], tol=grow)[0], \
             f"{where}: settled at {np.round(res.pos, 3)} outside the zone"
-        assert res.pos[2] < zone.volume.zmin + 0.1, where
+        if kind != "floor":  # off a floor zone, a bouncing object may come to rest on furniture
+            assert res.pos[2] < zone.volume.zmin + 0.1, where

@@ -90,7 +90,8 @@ def test_every_grade_keeps_base_label_contact_and_flag(lib):
         assert g.audio == base_name
         assert g.resonant == base.resonant
         assert g.friction == base.friction
-        assert g.solref == base.solref
+        if g.restitution == base.restitution:  # contact parameters go with the restitution
+            assert g.solref == base.solref
         assert g.sources and g.description
         # a grade exists to change something physical
         assert (g.density_kg_m3, g.youngs_modulus_pa, g.poisson_ratio, g.loss_factor) != (
@@ -151,21 +152,22 @@ def test_physical_ranges(lib):
 
 
 def test_contact_parameters(lib):
+    """solref is fitted to restitution (tests/physics/test_calibrate.py checks the fit); here:
+    the time constants respect the timestep, bouncy things are bouncy, soft things are not,
+    and solmix is the compliance."""
     for ref, m in lib.objects.items():
         assert m.contact_timeconst_s >= 2 * TIMESTEP_S - 1e-12, ref
-        assert m.contact_dampratio > 0, ref
-        # low damping ratios are only stable with a longer time constant
-        if m.contact_dampratio < 0.5:
-            assert m.contact_timeconst_s >= 4 * TIMESTEP_S, ref
-    hard = ("metal", "glass", "ceramic", "stone", "wood_hard")
-    for name in hard:
-        assert lib.object(name).contact_timeconst_s == pytest.approx(2 * TIMESTEP_S)
-    for name in ("plastic_soft_foam", "fabric", "leather", "paper"):
-        m = lib.object(name)
-        assert m.contact_timeconst_s > 2 * TIMESTEP_S and m.contact_dampratio >= 1.0, name
-    bounciest = min(AUDIO_MATERIALS, key=lambda n: lib.object(n).contact_dampratio)
-    assert bounciest == "rubber"
-    assert lib.object("plastic_hard").contact_dampratio < 1.0
+        assert 0 < m.contact_dampratio <= 2.0, ref
+        assert m.solmix == pytest.approx(1e9 / m.youngs_modulus_pa), ref
+    e = {ref: m.restitution for ref, m in lib.objects.items()}
+    assert e["plastic_hard/golf_ball"] >= 0.75 and e["rubber"] >= 0.7
+    for name in ("plastic_soft_foam", "fabric"):
+        assert e[name] <= 0.1, name
+    for name in ("metal", "glass", "ceramic", "stone", "wood_hard", "plastic_hard"):
+        assert 0.4 <= e[name] <= 0.8, name
+    assert min(AUDIO_MATERIALS, key=lambda n: e[n]) == "fabric"
+    # a softer material sets the bounce of a pair
+    assert lib.object("fabric").solmix > lib.object("wood_hard").solmix > lib.object("metal").solmix
 
 
 # -- surfaces -----------------------------------------------------------------------------------

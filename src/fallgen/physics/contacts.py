@@ -4,7 +4,9 @@ A *contact episode* is an uninterrupted run of contact between the falling body 
 geom (the floor, a shelf board, a distractor). Each episode that starts with the two approaching
 faster than ``impact_speed_mps`` yields one ``impact`` event: when it started, where, the normal,
 the relative normal speed just before contact, and the normal impulse delivered while the bodies
-were still approaching (for a plastic contact that is m v). Resting contact is not an impact.
+were still approaching (the compression phase: m v for a body hitting a fixed surface square on;
+the whole contact delivers (1 + e) times that). The step in which the approach ends contributes
+only the share of its impulse that stopped the approach (linear within the step). Resting contact is not an impact.
 While an episode lasts, the contact is sampled every ``sample_s``: samples where the surfaces slip
 faster than ``slip_speed_mps`` become ``scrape`` events; samples where the contact point travels
 over the surface without slipping become ``roll`` events. Every bounce is its own episode.
@@ -37,6 +39,18 @@ class ContactParams:
     gap_steps: int = 2  # an episode ends after this many steps without contact
     rest_speed_mps: float = 1e-3  # normal speeds below this end the compression phase
     max_compression_s: float = 0.02  # ... and it never lasts longer than this
+    # A sliding body under MuJoCo's soft, convex friction model is pushed off the surface by
+    # ~mu v_t, or rocks between its leading and trailing edges, and comes straight back: a
+    # re-contact with the same geom while slipping, approaching no faster than
+    # hop_mu_factor x mu x slip, after a gap too short for a ballistic flight (< hop_gap_s and
+    # < hop_flight_fraction x the 2 v / g a real bounce at that speed needs) is part of the
+    # scrape, not an impact.
+    hop_gap_s: float = 0.03
+    hop_flight_fraction: float = 0.5
+    hop_mu_factor: float = 1.25
+    # An impact's own contact (compression and rebound, a few steps) is not sampled for scrapes
+    # and rolls: only contact that lasts longer than this after an impact's start is.
+    impact_contact_s: float = 0.012
 
 
 @dataclass(frozen=True)
@@ -69,6 +83,8 @@ class _Episode:
     impulse: float = 0.0
     compressing: bool = True
     compression_steps: int = 0
+    vn_last: float = 0.0  # normal velocity of the contact point after the previous step
+    hop: bool = False  # a re-contact of a slide (see ContactParams), not an impact
     last_seen: int = 0
     # sustained-contact sample accumulators
     s_steps: int = 0
@@ -100,6 +116,8 @@ class ContactRecorder:
         self._force = np.zeros(6)
         self.vadr = model.jnt_dofadr[model.body_jntadr[body_id]]
         self._prev = (np.zeros(3), np.zeros(3), np.zeros(3))
+        # other geom -> last step in contact of its last closed episode
+        self._last: dict[int, int] = {}
 
     # -- kinematics ---------------------------------------------------------------------------
     # The body has a free joint: qvel[0:3] is the world velocity of the body origin and
@@ -157,19 +175,40 @@ class ContactRecorder:
                     start_step=self.step, geom_object=mine, point_world=pos,
                     point_object=xmat.T @ (pos - x), normal=n,
                     approach_mps=max(0.0, -float(vp0 @ n)),
-                    s_start_point=pos, s_start_step=self.step,
+                    s_start_point=pos, s_start_step=self.step, vn_last=float(vp0 @ n),
                 )
+                ep.hop = self._is_hop(other, ep, slip)
                 self.open[other] = ep
             ep.last_seen = self.step
             if ep.compressing:
-                ep.impulse += fn * self.dt
                 ep.compression_steps += 1
-                if vn >= -self.p.rest_speed_mps or \
-                        ep.compression_steps * self.dt >= self.p.max_compression_s:
+                if vn >= -self.p.rest_speed_mps:
+                    # Approach ended during this step: count the part of its impulse that
+                    # brought the normal velocity to zero (linear in the step), not the rebound.
+                    frac = min(1.0, max(0.0, -ep.vn_last / (vn - ep.vn_last))) \
+                        if vn > ep.vn_last else 1.0
+                    ep.impulse += frac * fn * self.dt
                     ep.compressing = False
+                else:
+                    ep.impulse += fn * self.dt
+                    ep.compressing = ep.compression_steps * self.dt < self.p.max_compression_s
+                ep.vn_last = vn
+            elif (ep.approach_mps >= self.p.impact_speed_mps
+                  and (self.step - ep.start_step + 1) * self.dt <= self.p.impact_contact_s):
+                ep.s_start_point = None  # sampling starts after the impact's own contact
             else:
                 self._sample(ep, other, pos, xmat.T @ (pos - x), n, fn, vn, slip)
         self._close_stale()
+
+    def _is_hop(self, other: int, ep: _Episode, slip: float) -> bool:
+        last = self._last.get(other)
+        if last is None or slip < self.p.slip_speed_mps:
+            return False
+        gap_s = (ep.start_step - last) * self.dt
+        flight_s = 2.0 * ep.approach_mps / 9.81
+        mu = float(max(self.m.geom_friction[ep.geom_object, 0], self.m.geom_friction[other, 0]))
+        return (gap_s <= min(self.p.hop_gap_s, self.p.hop_flight_fraction * flight_s)
+                and ep.approach_mps <= self.p.hop_mu_factor * mu * slip)
 
     def _close_stale(self) -> None:
         for other in [g for g, ep in self.open.items()
@@ -220,7 +259,8 @@ class ContactRecorder:
     def _close(self, other: int) -> None:
         ep = self.open.pop(other)
         self._flush_sample(ep, other, ep.normal)
-        if ep.approach_mps >= self.p.impact_speed_mps:
+        self._last[other] = ep.last_seen
+        if ep.approach_mps >= self.p.impact_speed_mps and not ep.hop:
             dur = ep.compression_steps * self.dt
             self.events.append(self._event(
                 time=(ep.start_step - 1) * self.dt, kind="impact", ep=ep, other=other,

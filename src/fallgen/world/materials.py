@@ -57,6 +57,7 @@ _OBJECT_FIELDS = (
     "friction_sliding",
     "friction_torsional_m",
     "friction_rolling_m",
+    "restitution",
     "contact_timeconst_s",
     "contact_dampratio",
     "rgba",
@@ -69,6 +70,9 @@ _GRADE_FIELDS = (
     "youngs_modulus_pa",
     "poisson_ratio",
     "loss_factor",
+    "restitution",
+    "contact_timeconst_s",
+    "contact_dampratio",
     "rgba",
     "sources",
 )
@@ -103,6 +107,7 @@ class ObjectMaterial:
     friction_sliding: float
     friction_torsional_m: float
     friction_rolling_m: float
+    restitution: float  # coefficient of restitution against a rigid surface, 1-5 m/s
     contact_timeconst_s: float
     contact_dampratio: float
     rgba: tuple[float, float, float, float]
@@ -117,6 +122,12 @@ class ObjectMaterial:
     def solref(self) -> tuple[float, float]:
         """MuJoCo ``geom.solref``: contact time constant (s) and damping ratio."""
         return (self.contact_timeconst_s, self.contact_dampratio)
+
+    @property
+    def solmix(self) -> float:
+        """MuJoCo ``geom.solmix``: the material's compliance in 1/GPa, so that in a contact the
+        softer body's ``solref`` dominates (it stores most of the impact energy)."""
+        return 1e9 / self.youngs_modulus_pa
 
 
 @dataclass(frozen=True)
@@ -191,7 +202,7 @@ def _sources(f: Fields) -> tuple[str, ...]:
 
 
 def _elastic(f: Fields, base: ObjectMaterial | None) -> dict:
-    """Elastic constants; a grade inherits what it does not override from its base."""
+    """Elastic and contact constants; a grade inherits what it does not override from its base."""
 
     def num(key: str, **kw) -> float:
         if base is not None and key not in f:
@@ -203,6 +214,9 @@ def _elastic(f: Fields, base: ObjectMaterial | None) -> dict:
         youngs_modulus_pa=num("youngs_modulus_pa", lo=1e4, hi=1e12),
         poisson_ratio=num("poisson_ratio", lo=0.0, hi=0.4999),
         loss_factor=num("loss_factor", positive=True, hi=2.0),
+        restitution=num("restitution", lo=0.0, hi=0.95),
+        contact_timeconst_s=num("contact_timeconst_s", lo=0.004, hi=0.1),
+        contact_dampratio=num("contact_dampratio", positive=True, hi=10.0),
     )
 
 
@@ -220,8 +234,6 @@ def parse_object_materials(f: Fields) -> dict[str, ObjectMaterial]:
             friction_sliding=m.float("friction_sliding", lo=0.0, hi=3.0),
             friction_torsional_m=m.float("friction_torsional_m", lo=0.0, hi=0.1),
             friction_rolling_m=m.float("friction_rolling_m", lo=0.0, hi=0.1),
-            contact_timeconst_s=m.float("contact_timeconst_s", positive=True, hi=0.1),
-            contact_dampratio=m.float("contact_dampratio", positive=True, hi=10.0),
             rgba=_rgba(m),
             sources=_sources(m),
         )

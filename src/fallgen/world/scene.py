@@ -27,6 +27,12 @@ from fallgen.world.objects import ObjectInstance
 from fallgen.world.rooms import RoomVariant
 
 WALL_THICKNESS_M = 0.2
+#: MuJoCo ``geom.solimp`` of every geom: the constraint impedance ramps from 0 at first touch to
+#: 0.95 at 1 mm of penetration. MuJoCo's default (0.9 at first touch) makes a body resting on a
+#: contact with a bouncy ``solref`` chatter forever in a discrete-time limit cycle (a key on a
+#: table: 0.02 m/s, never settles); the ramp removes it, costs ~0.5 mm of resting sink, and leaves
+#: the restitution at impact speeds >= 1 m/s unchanged (measured; bench/contact_params.py).
+CONTACT_SOLIMP = (0.0, 0.95, 0.001, 0.5, 2.0)
 VISUAL_GROUP, COLLISION_GROUP = 1, 3
 
 
@@ -37,6 +43,9 @@ class PhysicsSettings:
     elliptic_cone: bool = True
     object_condim: int = 6
     integrator: str = "implicitfast"
+    #: MuJoCo's no-slip post-solver: without it a thin body resting on several contacts with a
+    #: bouncy solref (a key on a table) rocks forever at ~0.3 rad/s in a friction limit cycle.
+    noslip_iterations: int = 3
 
     def __post_init__(self) -> None:
         if not 0 < self.timestep_s <= 0.01:
@@ -94,6 +103,8 @@ def _set_contact(g, mats: MaterialLibrary, material: str, friction_sliding: floa
         fr[0] = friction_sliding
     g.friction = fr
     g.solref = list(m.solref)
+    g.solmix = m.solmix
+    g.solimp = list(CONTACT_SOLIMP)
     g.margin = 0.0
 
 
@@ -111,6 +122,7 @@ def build_spec(
     opt = spec.option
     opt.timestep = settings.timestep_s
     opt.impratio = settings.impratio
+    opt.noslip_iterations = settings.noslip_iterations
     opt.cone = mujoco.mjtCone.mjCONE_ELLIPTIC if settings.elliptic_cone else mujoco.mjtCone.mjCONE_PYRAMIDAL
     opt.integrator = {
         "euler": mujoco.mjtIntegrator.mjINT_EULER,
