@@ -15,7 +15,7 @@ import time
 import mujoco
 
 from fallgen.config import RehearseConfig
-from fallgen.physics.drop import _scene_objects, _instance, run_trial
+from fallgen.physics.drop import PHYSICS, _instance, _scene_objects, run_trial
 from fallgen.world.library import load_world
 from fallgen.world.scene import build_scene
 
@@ -43,7 +43,7 @@ def main() -> None:
         objs = _scene_objects(world, _instance(world, e.target), e.start_pos, e.start_quat,
                               e.distractors, e.occluders)
         t = time.perf_counter()
-        scene = build_scene(variant, world.materials, objs)
+        scene = build_scene(variant, world.materials, objs, settings=PHYSICS)
         t_compile += time.perf_counter() - t
         m = scene.model
         d = mujoco.MjData(m)

@@ -51,7 +51,8 @@ def test_first_impact_matches_free_fall_and_momentum(world, cat):
     assert first.kind == "impact" and first.other == "floor"
     assert abs(first.time_s - t_ff) <= 2 * dt
     assert first.normal_speed_mps == pytest.approx(G * t_ff, rel=0.02)
-    assert first.normal == pytest.approx((0.0, 0.0, 1.0), abs=1e-6)
+    # (within 1 degree: the collision hull is coarse, 32 vertices, so its base is a polygon)
+    assert first.normal == pytest.approx((0.0, 0.0, 1.0), abs=0.02)
     assert first.material_other == world.variant("study_loft-l1-m1").surfaces["floor"].impact_material
     # The recorded impulse is that of the compression phase: m v for a square hit on the floor,
     # whether the object then bounces or not (the whole contact delivers m v (1 + e)).

@@ -26,7 +26,8 @@ def _sample_overlap(a: Box, b: Box, n: int = 4000) -> bool:
 @given(boxes, boxes)
 def test_penetration_agrees_with_point_sampling(a, b):
     d = penetration(a, b)
-    hit = _sample_overlap(a, b)
+    # Sample both boxes: a small box deep inside a large one holds few of the large one's samples.
+    hit = _sample_overlap(a, b) or _sample_overlap(b, a)
     if hit:
         assert d > -1e-9
     if d > 0.05:  # deep overlaps are always found by sampling

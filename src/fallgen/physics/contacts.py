@@ -42,11 +42,9 @@ class ContactParams:
     # A sliding body under MuJoCo's soft, convex friction model is pushed off the surface by
     # ~mu v_t, or rocks between its leading and trailing edges, and comes straight back: a
     # re-contact with the same geom while slipping, approaching no faster than
-    # hop_mu_factor x mu x slip, after a gap too short for a ballistic flight (< hop_gap_s and
-    # < hop_flight_fraction x the 2 v / g a real bounce at that speed needs) is part of the
-    # scrape, not an impact.
+    # hop_mu_factor x mu x slip, after a gap of at most hop_gap_s is part of the scrape, not an
+    # impact. (A real bounce at v >= 0.15 m/s is airborne for 2 v / g >= 30 ms.)
     hop_gap_s: float = 0.03
-    hop_flight_fraction: float = 0.5
     hop_mu_factor: float = 1.25
     # An impact's own contact (compression and rebound, a few steps) is not sampled for scrapes
     # and rolls: only contact that lasts longer than this after an impact's start is.
@@ -205,10 +203,8 @@ class ContactRecorder:
         if last is None or slip < self.p.slip_speed_mps:
             return False
         gap_s = (ep.start_step - last) * self.dt
-        flight_s = 2.0 * ep.approach_mps / 9.81
         mu = float(max(self.m.geom_friction[ep.geom_object, 0], self.m.geom_friction[other, 0]))
-        return (gap_s <= min(self.p.hop_gap_s, self.p.hop_flight_fraction * flight_s)
-                and ep.approach_mps <= self.p.hop_mu_factor * mu * slip)
+        return gap_s <= self.p.hop_gap_s and ep.approach_mps <= self.p.hop_mu_factor * mu * slip
 
     def _close_stale(self) -> None:
         for other in [g for g, ep in self.open.items()

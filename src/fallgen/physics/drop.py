@@ -25,7 +25,10 @@ from fallgen.physics.settle import SettleCriteria, SettleResult, mujoco_warnings
 from fallgen.world.library import World
 from fallgen.world.objects import ObjectInstance
 from fallgen.world.rooms import RoomVariant, Zone
-from fallgen.world.scene import PlacedObject, build_scene
+from fallgen.world.scene import PhysicsSettings, PlacedObject, build_scene
+
+#: Physics-only scenes: no render meshes (they do not collide; compiling them is wasted time).
+PHYSICS = PhysicsSettings(visual_meshes=False)
 
 #: Why a trial was not kept; every trial ends with exactly one of these (or "kept").
 REASONS = ("kept", "does_not_fit", "start_overlap", "unstable", "not_settled", "left_room",
@@ -119,7 +122,7 @@ def _settle_distractors(world: World, variant: RoomVariant, zone: Zone, target_c
         objs.append(PlacedObject(f"d{k}", inst, (x, y, z), _uniform_quat(rng)))
     statics = [PlacedObject(f"o{k}", _instance(world, p.object), p.pos, p.quat, free=False)
                for k, p in enumerate(occluders)]
-    scene = build_scene(variant, world.materials, objs + statics)
+    scene = build_scene(variant, world.materials, objs + statics, settings=PHYSICS)
     data = scene.data()
     mujoco.mj_forward(scene.model, data)
     for _ in range(int(round(2.0 / scene.model.opt.timestep))):
@@ -159,7 +162,7 @@ def _simulate(world: World, variant: RoomVariant, objs: list[PlacedObject], linv
     chunks decides when (and whether) it settles; if it is worth keeping (``record``), a second
     pass from the same initial state records contacts step by step for exactly as many steps
     and must end in the same state bit for bit. ``max_steps`` (a replay) skips the first pass."""
-    scene = build_scene(variant, world.materials, objs)
+    scene = build_scene(variant, world.materials, objs, settings=PHYSICS)
     m = scene.model
     b = scene.object_body["target"]
     vadr = m.jnt_dofadr[m.body_jntadr[b]]

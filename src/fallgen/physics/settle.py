@@ -1,13 +1,16 @@
 """Step a MuJoCo scene until one free body settles, watching for instabilities.
 
 Settled means: linear speed below ``lin_tol`` and angular speed below ``ang_tol`` continuously
-for ``hold_s``. MuJoCo silently resets a simulation whose accelerations go bad, so the warning
+for ``hold_s``; or, for a body that keeps jittering in place (a thin key rocking on a counter at
+0.01-0.2 rad/s in a discrete-time limit cycle of its soft contacts), a pose that has not moved by
+more than ``pose_tol_m`` / ``pose_tol_rad`` over the last ``pose_window_s``. MuJoCo silently resets a simulation whose accelerations go bad, so the warning
 counters (``mjWARN_BADQACC`` and friends) are checked as well as the state staying finite.
 """
 
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass
 
 import mujoco
@@ -20,6 +23,9 @@ class SettleCriteria:
     ang_tol_radps: float = 0.1
     hold_s: float = 0.25
     timeout_s: float = 6.0
+    pose_window_s: float = 0.5
+    pose_tol_m: float = 0.001
+    pose_tol_rad: float = 0.0175  # 1 degree
 
 
 @dataclass(frozen=True)
@@ -49,6 +55,22 @@ def mujoco_warnings(data: mujoco.MjData) -> dict[str, int]:
     return out
 
 
+#: Pose sampling period of the "still in place" test (steps).
+POSE_EVERY_STEPS = 10
+
+
+def _still(poses: deque, c: SettleCriteria) -> bool:
+    """Every pose of the window within tolerance of the first."""
+    p0, q0 = poses[0]
+    for p, q in poses:
+        if (p[0] - p0[0]) ** 2 + (p[1] - p0[1]) ** 2 + (p[2] - p0[2]) ** 2 > c.pose_tol_m ** 2:
+            return False
+        dot = abs(q[0] * q0[0] + q[1] * q0[1] + q[2] * q0[2] + q[3] * q0[3])
+        if 2.0 * math.acos(min(1.0, dot)) > c.pose_tol_rad:
+            return False
+    return True
+
+
 def simulate_until_settled(model: mujoco.MjModel, data: mujoco.MjData, body_id: int,
                            criteria: SettleCriteria = SettleCriteria(),
                            recorder=None, max_steps: int | None = None,
@@ -73,6 +95,10 @@ def simulate_until_settled(model: mujoco.MjModel, data: mujoco.MjData, body_id: 
     calm, settled_at = 0, None
     max_speed, min_z, unstable = 0.0, np.inf, False
     steps = 0
+    # Poses are sampled every POSE_EVERY_STEPS steps whatever the chunk, so that a chunked
+    # first pass and a step-by-step replay reach the same verdict at the same step.
+    window = max(1, int(math.ceil(criteria.pose_window_s / (dt * POSE_EVERY_STEPS))))
+    poses: deque = deque(maxlen=window + 1)
     while steps < max_steps:
         n = min(chunk, max_steps - steps)
         if recorder is not None:
@@ -92,9 +118,15 @@ def simulate_until_settled(model: mujoco.MjModel, data: mujoco.MjData, body_id: 
             math.sqrt(v[3] ** 2 + v[4] ** 2 + v[5] ** 2)
         max_speed, min_z = max(max_speed, lin), min(min_z, float(z))
         calm = calm + 1 if (lin < criteria.lin_tol_mps and ang < criteria.ang_tol_radps) else 0
-        if calm >= hold and settled_at is None:
-            settled_at = (steps - hold * n) * dt
-            if not replay:
+        sampled = steps % POSE_EVERY_STEPS == 0
+        if sampled:
+            poses.append((data.qpos[qadr:qadr + 3].copy(), data.qpos[qadr + 3:qadr + 7].copy()))
+        if settled_at is None:
+            if calm >= hold:
+                settled_at = (steps - hold * n) * dt
+            elif sampled and len(poses) == window + 1 and _still(poses, criteria):
+                settled_at = (steps - window * POSE_EVERY_STEPS) * dt
+            if settled_at is not None and not replay:
                 break
     return SettleResult(
         settled=settled_at is not None and not unstable,
