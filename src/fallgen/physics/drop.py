@@ -125,8 +125,7 @@ def _settle_distractors(world: World, variant: RoomVariant, zone: Zone, target_c
     scene = build_scene(variant, world.materials, objs + statics, settings=PHYSICS)
     data = scene.data()
     mujoco.mj_forward(scene.model, data)
-    for _ in range(int(round(2.0 / scene.model.opt.timestep))):
-        mujoco.mj_step(scene.model, data)
+    _settle_all(scene.model, data, DISTRACTOR_SETTLE_S)
     if mujoco_warnings(data) or not np.isfinite(data.qpos).all():
         return []
     lx, ly, h = variant.size_m
@@ -139,6 +138,24 @@ def _settle_distractors(world: World, variant: RoomVariant, zone: Zone, target_c
             out.append(Placement(_spec(o.instance), tuple(map(float, pos)),
                                  tuple(map(float, quat / np.linalg.norm(quat)))))
     return out
+
+
+#: Longest time given to distractors to come to rest (they are frozen where they are then).
+DISTRACTOR_SETTLE_S = 2.0
+
+
+def _settle_all(m: mujoco.MjModel, d: mujoco.MjData, max_s: float) -> None:
+    """Step in C chunks until every free body is calm (1 cm/s, 0.1 rad/s) or ``max_s``."""
+    steps = int(round(max_s / m.opt.timestep))
+    done = 0
+    while done < steps:
+        n = min(CHECK_EVERY_STEPS, steps - done)
+        mujoco.mj_step(m, d, nstep=n)
+        done += n
+        v = d.qvel.reshape(-1, 6) if m.nv % 6 == 0 else None
+        if v is not None and done >= 100 and np.all(np.abs(v[:, :3]) < 0.01) and \
+                np.all(np.abs(v[:, 3:]) < 0.1):
+            return
 
 
 def _scene_objects(world: World, target: ObjectInstance, start_pos, start_quat,
@@ -156,12 +173,14 @@ CHECK_EVERY_STEPS = 10
 
 
 def _simulate(world: World, variant: RoomVariant, objs: list[PlacedObject], linvel, angvel,
-              criteria: SettleCriteria, max_steps: int | None = None, record: bool = True
+              criteria: SettleCriteria, max_steps: int | None = None,
+              keep=lambda res, com: True
               ) -> tuple[SettleResult, list[ContactEvent], np.ndarray, float, bool]:
     """Simulate the target's fall in two passes over one compiled model: a fast pass in C
-    chunks decides when (and whether) it settles; if it is worth keeping (``record``), a second
-    pass from the same initial state records contacts step by step for exactly as many steps
-    and must end in the same state bit for bit. ``max_steps`` (a replay) skips the first pass."""
+    chunks decides when (and whether) it settles; if it is worth keeping (``keep(result,
+    centre of mass)``), a second pass from the same initial state records contacts step by step
+    for exactly as many steps and must end in the same state bit for bit. ``max_steps`` (a
+    replay) skips the first pass."""
     scene = build_scene(variant, world.materials, objs, settings=PHYSICS)
     m = scene.model
     b = scene.object_body["target"]
@@ -181,7 +200,7 @@ def _simulate(world: World, variant: RoomVariant, objs: list[PlacedObject], linv
     first = None
     if max_steps is None:
         first = simulate_until_settled(m, d, b, criteria, chunk=CHECK_EVERY_STEPS)
-        if overlap or not record or not first.settled:
+        if overlap or not first.settled or not keep(first, d.xipos[b]):
             return first, [], d.xipos[b].copy(), float(m.body_mass[b]), overlap
         max_steps = first.steps
         d = fresh()
@@ -240,8 +259,9 @@ def run_trial(world: World, variant: RoomVariant, zone: Zone, trial: int,
     angvel = tuple(float(a) for a in rng.normal(0, cfg.spin_radps, 3))
     start = (float(x), float(y), z)
     objs = _scene_objects(world, target, start, quat, distractors, occluders)
-    res, contacts, com, mass, overlap = _simulate(world, variant, objs, linvel, angvel,
-                                                  criteria_of(cfg))
+    res, contacts, com, mass, overlap = _simulate(
+        world, variant, objs, linvel, angvel, criteria_of(cfg),
+        keep=lambda r, c: _judge(variant, zone, r, c) == "kept")
     if overlap:
         return TrialOutcome("start_overlap", None, cid)
     reason = _judge(variant, zone, res, com)
