@@ -1,0 +1,173 @@
+"""Modal models of object shapes: solve once per shape, rescale for material and size, cache.
+
+A shape's modes are solved by voxel FEM (:mod:`fallgen.audio.fem`) at a reference material
+(E_REF, RHO_REF and the material's Poisson ratio, rounded to 0.05) and scale 1. For the same
+shape scaled by ``s`` in a material (E, rho): omega = omega_ref sqrt(E rho_ref / (E_ref rho)) / s,
+and mass-normalised shapes phi = phi_ref sqrt(rho_ref / rho) s^(-3/2). Only what synthesis needs
+is kept: the frequencies, and at the surface nodes their position, outward area vector and mode
+shapes. Models are cached as ``.npz`` files keyed by a hash of the mesh and the solver settings,
+so a full build solves each (shape, Poisson ratio) once.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from fallgen.atomic import write_bytes
+import trimesh
+
+from fallgen.audio.fem import lattice, solve_modes
+from fallgen.audio.voxelize import VoxelSolid, voxel_size, voxelize
+
+E_REF = 1.0e10  # Pa
+RHO_REF = 1000.0  # kg/m^3
+SOLVER_VERSION = 1  # bump when the solver changes what it produces
+
+
+@dataclass(frozen=True)
+class ModalSettings:
+    target_voxels: int = 3000
+    n_modes: int = 40
+    sub_samples: int = 3
+
+
+@dataclass(frozen=True)
+class ModalModel:
+    """Modes of one shape at E_REF, RHO_REF, scale 1 (or, after :meth:`scaled`, of an object)."""
+
+    omega: np.ndarray  # (n,) rad/s, ascending
+    points: np.ndarray  # (S, 3) surface nodes, object frame, m
+    area: np.ndarray  # (S, 3) outward area vector of each surface node, m^2
+    shapes: np.ndarray  # (S, 3, n) mass-normalised mode shapes at the surface nodes, 1/sqrt(kg)
+    nu: float
+    h: float  # voxel side, m
+    n_voxels: int
+    volume_error: float
+
+    def scaled(self, youngs_modulus_pa: float, density_kg_m3: float, scale: float) -> ModalModel:
+        """The same shape in a material, ``scale`` times the size."""
+        k = np.sqrt(youngs_modulus_pa * RHO_REF / (E_REF * density_kg_m3)) / scale
+        a = np.sqrt(RHO_REF / density_kg_m3) * scale ** -1.5
+        return ModalModel(self.omega * k, self.points * scale, self.area * scale ** 2,
+                          (self.shapes * a).astype(np.float32), self.nu, self.h * scale,
+                          self.n_voxels, self.volume_error)
+
+    def shape_at(self, point: np.ndarray) -> np.ndarray:
+        """Mode shapes (3, n) at the surface node nearest to ``point`` (object frame)."""
+        i = int(np.argmin(((self.points - np.asarray(point)) ** 2).sum(axis=1)))
+        return self.shapes[i]
+
+    def normal_at(self, point: np.ndarray) -> np.ndarray:
+        i = int(np.argmin(((self.points - np.asarray(point)) ** 2).sum(axis=1)))
+        a = self.area[i]
+        n = float(np.linalg.norm(a))
+        return a / n if n > 0 else a
+
+
+def _surface(solid: VoxelSolid, nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Surface node indices and their outward area vectors (each exposed voxel face gives a
+    quarter of its area to each of its 4 corners)."""
+    occ = solid.occupied
+    h = solid.h
+    pad = np.pad(occ, 1)
+    nx, ny, nz = occ.shape
+    # node lattice index -> row in `nodes` (fem.lattice lists nodes by ascending lattice index)
+    ijk = np.rint((nodes - solid.origin) / h).astype(int)
+    lin = ijk[:, 0] + (nx + 1) * (ijk[:, 1] + (ny + 1) * ijk[:, 2])
+    acc = np.zeros((len(nodes), 3))
+    vox = np.argwhere(occ)
+    for axis in range(3):
+        for side in (-1, 1):
+            nb = vox.copy()
+            nb[:, axis] += side
+            exposed = ~pad[nb[:, 0] + 1, nb[:, 1] + 1, nb[:, 2] + 1]
+            faces = vox[exposed]
+            if len(faces) == 0:
+                continue
+            # the 4 corners of that face
+            base = faces.copy()
+            if side == 1:
+                base[:, axis] += 1
+            o1, o2 = [a for a in range(3) if a != axis]
+            for d1 in (0, 1):
+                for d2 in (0, 1):
+                    c = base.copy()
+                    c[:, o1] += d1
+                    c[:, o2] += d2
+                    li = c[:, 0] + (nx + 1) * (c[:, 1] + (ny + 1) * c[:, 2])
+                    rows = np.searchsorted(lin, li)
+                    np.add.at(acc[:, axis], rows, side * h * h / 4)
+    surf = np.nonzero(np.abs(acc).sum(axis=1) > 0)[0]
+    return surf, acc[surf]
+
+
+def solve_shape(vertices: np.ndarray, faces: np.ndarray, nu: float,
+                settings: ModalSettings = ModalSettings()) -> ModalModel:
+    """Voxelise a watertight mesh and solve its modes at the reference material."""
+    v = np.asarray(vertices, float)
+    mesh = trimesh.Trimesh(v, np.asarray(faces), process=False)
+    ext = v.max(axis=0) - v.min(axis=0)
+    h = voxel_size(abs(float(mesh.volume)), ext, settings.target_voxels)
+    solid = voxelize(v, faces, h, settings.sub_samples)
+    vm = solve_modes(solid.occupied, h, E=E_REF, nu=nu, rho=RHO_REF,
+                     n_modes=settings.n_modes, origin=solid.origin,
+                     stiffness_scale=solid.stiffness_scale, density_scale=solid.fill)
+    nodes, _ = lattice(solid.occupied, h, solid.origin)
+    surf, area = _surface(solid, nodes)
+    return ModalModel(vm.omega, nodes[surf], area, vm.shapes[surf].astype(np.float32), nu, h,
+                      solid.n_voxels, solid.volume_error)
+
+
+def round_nu(nu: float) -> float:
+    return round(round(nu / 0.05) * 0.05, 2)
+
+
+def cache_key(vertices: np.ndarray, faces: np.ndarray, nu: float,
+              settings: ModalSettings) -> str:
+    hsh = hashlib.sha256()
+    hsh.update(np.ascontiguousarray(vertices, dtype=np.float64).tobytes())
+    hsh.update(np.ascontiguousarray(faces, dtype=np.int64).tobytes())
+    hsh.update(repr((round_nu(nu), settings, SOLVER_VERSION, E_REF, RHO_REF)).encode())
+    return hsh.hexdigest()[:24]
+
+
+def default_cache_dir() -> Path:
+    env = os.environ.get("FALLGEN_CACHE")
+    base = Path(env) if env else Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "fallgen"
+    return base / "modes"
+
+
+def _save(path: Path, m: ModalModel) -> None:
+    buf = io.BytesIO()
+    np.savez(buf, omega=m.omega, points=m.points, area=m.area, shapes=m.shapes,
+             meta=np.array([m.nu, m.h, m.n_voxels, m.volume_error]))
+    write_bytes(path, buf.getvalue())
+
+
+def _load(path: Path) -> ModalModel:
+    with np.load(path) as z:
+        nu, h, nvox, err = z["meta"]
+        return ModalModel(z["omega"], z["points"], z["area"], z["shapes"], float(nu), float(h),
+                          int(nvox), float(err))
+
+
+def modal_model(vertices: np.ndarray, faces: np.ndarray, nu: float,
+                settings: ModalSettings = ModalSettings(),
+                cache_dir: Path | None = None) -> ModalModel:
+    """The shape's reference modal model, from the cache or solved (and cached)."""
+    key = cache_key(vertices, faces, nu, settings)
+    path = (cache_dir or default_cache_dir()) / f"{key}.npz"
+    if path.exists():
+        try:
+            return _load(path)
+        except (OSError, ValueError, KeyError):
+            path.unlink(missing_ok=True)  # a corrupt cache entry is recomputed
+    m = solve_shape(vertices, faces, round_nu(nu), settings)
+    _save(path, m)
+    return m

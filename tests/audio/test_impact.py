@@ -1,0 +1,125 @@
+"""Impact sounds: loudness follows the impulse, size sets pitch, loss factors set decay; no NaN,
+no normalisation, deterministic."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import trimesh
+
+from fallgen.audio.hertz import hertz_impact
+from fallgen.audio.impact import ModalHit, SoundingBody, radiation_factors, render
+from fallgen.audio.modes import ModalSettings, modal_model
+
+FS = 44100
+
+
+@pytest.fixture(scope="module")
+def bar_ref(tmp_path_factory):
+    box = trimesh.creation.box((0.1, 0.02, 0.008))
+    return modal_model(box.vertices, box.faces, 0.3, ModalSettings(target_voxels=800, n_modes=16),
+                       tmp_path_factory.mktemp("modes"))
+
+
+def _body(ref, mat, scale=1.0):
+    E, rho, nu, eta = mat
+    m = ref.scaled(E, rho, scale)
+    return SoundingBody(m, eta, E, nu, rho * 0.1 * 0.02 * 0.008 * scale ** 3, 0.004 * scale)
+
+
+STEEL = (2.0e11, 7850.0, 0.29, 0.004)
+GLASS = (7.0e10, 2500.0, 0.22, 0.003)
+WOOD = (1.1e10, 700.0, 0.3, 0.03)
+RUBBER = (5.0e6, 1100.0, 0.49, 0.3)
+TIP = np.array([0.05, 0.01, 0.004])  # a corner
+
+
+def _hit(body, speed, t=0.01):
+    h = hertz_impact(body.youngs_modulus_pa, body.poisson_ratio, 6e10, 0.2,
+                     body.contact_radius_m, math.inf, body.mass_kg, math.inf, speed)
+    return ModalHit(t, TIP, body.mass_kg * speed, h.duration_s)
+
+
+def _fundamental(p):
+    spec = np.abs(np.fft.rfft(p * np.hanning(len(p))))
+    f = np.fft.rfftfreq(len(p), 1 / FS)
+    return f[np.argmax(spec * (f > 50))]
+
+
+def _t60(p, f0=None):
+    """Decay time from Schroeder's backward-integrated energy curve, fitted from -5 to -35 dB
+    (T30 extrapolated to 60 dB)."""
+    edc = np.cumsum((p ** 2)[::-1])[::-1]
+    db = 10 * np.log10(edc / edc[0] + 1e-300)
+    k = np.nonzero((db <= -5) & (db >= -35))[0]
+    slope = np.polyfit(k / FS, db[k], 1)[0]
+    return -60 / slope
+
+
+def test_louder_with_impulse_no_normalisation(bar_ref):
+    b = _body(bar_ref, STEEL)
+    # same pulse, twice the impulse: exactly twice the pressure
+    h = _hit(b, 2.0)
+    p1 = render(b, [h], 0.5)
+    p2 = render(b, [ModalHit(h.time_s, h.point, 2 * h.impulse_ns, h.duration_s)], 0.5)
+    assert np.allclose(p2, 2 * p1)
+    # a faster impact (impulse and a shorter Hertz pulse): louder, about as the impulse
+    slow, fast = render(b, [_hit(b, 1.0)], 0.5), render(b, [_hit(b, 4.0)], 0.5)
+    ratio = np.sqrt((fast ** 2).mean() / (slow ** 2).mean())
+    assert 3.5 < ratio < 6.0
+    # heavier (same shape, denser) -> more impulse at the same speed -> louder in pascals
+    assert np.abs(p1).max() > 1e-4  # audible: > 14 dB SPL peak at 1 m
+
+
+def test_bigger_object_rings_lower(bar_ref):
+    small, big = _body(bar_ref, STEEL, 1.0), _body(bar_ref, STEEL, 2.0)
+    assert big.modes.omega[0] == pytest.approx(small.modes.omega[0] / 2)
+    f_small = _fundamental(render(small, [_hit(small, 2.0)], 1.0))
+    f_big = _fundamental(render(big, [_hit(big, 2.0)], 1.0))
+    assert f_big < 0.75 * f_small
+
+
+def test_decay_follows_loss_factor(bar_ref):
+    # The same modes with the loss factors of glass, steel, wood and rubber: decay times in
+    # the inverse order of the loss factors (T60 = 2 ln(1000) / (eta w) per mode).
+    t60 = {}
+    for name, eta in (("glass", GLASS[3]), ("steel", STEEL[3]), ("wood", WOOD[3]),
+                      ("rubber", RUBBER[3])):
+        b = _body(bar_ref, STEEL[:3] + (eta,))
+        p = render(b, [_hit(b, 2.0)], 2.0)
+        assert np.isfinite(p).all()
+        t60[name] = _t60(p, None)
+    assert t60["glass"] > t60["steel"] > t60["wood"] > t60["rubber"], t60
+    # every decay rate is proportional to eta, so the decay time is inversely proportional
+    assert t60["steel"] / t60["wood"] == pytest.approx(WOOD[3] / STEEL[3], rel=0.1)
+
+
+def test_library_materials_ring_in_loss_factor_order(world):
+    # At a common pitch (1 kHz), glass and metal ring longer than wood, wood longer than rubber.
+    t60 = {n: 6 * math.log(10) / (world.materials.object(n).loss_factor * math.pi * 1000)
+           for n in ("glass", "metal", "ceramic", "wood_medium", "wood_hard", "rubber")}
+    assert min(t60["glass"], t60["metal"]) > max(t60["wood_medium"], t60["wood_hard"])
+    assert min(t60["wood_medium"], t60["wood_hard"]) > t60["rubber"]
+
+
+def test_library_loss_factors_are_ordered(world):
+    eta = {n: world.materials.object(n).loss_factor for n in
+           ("glass", "metal", "ceramic", "wood_medium", "wood_hard", "rubber", "fabric")}
+    assert max(eta["glass"], eta["metal"], eta["ceramic"]) < min(eta["wood_medium"], eta["wood_hard"])
+    assert max(eta["wood_medium"], eta["wood_hard"]) < min(eta["rubber"], eta["fabric"])
+
+
+def test_deterministic_finite_and_bounded(bar_ref):
+    b = _body(bar_ref, STEEL)
+    hits = [_hit(b, 3.0, 0.01), _hit(b, 1.0, 0.3), _hit(b, 0.3, 0.5)]
+    a, c = render(b, hits, 2.0), render(b, hits, 2.0)
+    assert np.array_equal(a, c)
+    assert np.isfinite(a).all() and np.abs(a).max() < 200.0  # < 140 dB SPL: no blow-up
+    assert np.abs(a[: int(0.01 * FS) - 1]).max() == 0.0  # silent before the first hit
+
+
+def test_torsion_does_not_radiate_more_than_bending(bar_ref):
+    r = radiation_factors(bar_ref)
+    assert np.isfinite(r).all() and (r >= 0).all()
