@@ -68,6 +68,7 @@ class ContactEvent:
     tangential_speed_mps: float  # slip speed at the contact point
     duration_s: float  # compression time (impacts) or sample length
     mean_force_n: float  # mean normal force over duration_s
+    travel_speed_mps: float = 0.0  # speed of the contact point over the surface (scrape, roll)
 
 
 @dataclass
@@ -236,12 +237,13 @@ class ContactRecorder:
                 time=(ep.s_start_step - 1) * self.dt, kind=kind, ep=ep, other=other,
                 point=ep.s_point, normal=n, normal_speed=ep.s_normal_speed / ep.s_steps,
                 impulse=ep.s_force * self.dt, slip=slip, duration=dur,
-                mean_force=ep.s_force / ep.s_steps, point_object=ep.s_point_object))
+                mean_force=ep.s_force / ep.s_steps, point_object=ep.s_point_object,
+                travel=travel))
         ep.s_steps, ep.s_force, ep.s_slip, ep.s_normal_speed = 0, 0.0, 0.0, 0.0
         ep.s_start_point, ep.s_start_step = None, self.step + 1
 
     def _event(self, *, time, kind, ep, other, point, normal, normal_speed, impulse, slip,
-               duration, mean_force, point_object=None) -> ContactEvent:
+               duration, mean_force, point_object=None, travel=0.0) -> ContactEvent:
         po = ep.point_object if point_object is None else point_object
         return ContactEvent(
             time_s=float(time), kind=kind, other=self.owner[other],
@@ -250,7 +252,8 @@ class ContactRecorder:
             point_world=tuple(float(x) for x in point), point_object=tuple(float(x) for x in po),
             normal=tuple(float(x) for x in normal), normal_speed_mps=float(normal_speed),
             impulse_ns=float(impulse), tangential_speed_mps=float(slip),
-            duration_s=float(duration), mean_force_n=float(mean_force))
+            duration_s=float(duration), mean_force_n=float(mean_force),
+            travel_speed_mps=float(travel))
 
     def _close(self, other: int) -> None:
         ep = self.open.pop(other)

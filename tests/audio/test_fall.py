@@ -1,0 +1,110 @@
+"""The sound of a whole fall: both bodies ring, faster falls are louder, soft objects thud,
+deterministic for the same generator."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from fallgen.audio.fall import AudioSettings, FallRenderer
+from fallgen.audio.modes import ModalSettings
+from fallgen.physics.drop import PHYSICS
+from fallgen.physics.contacts import ContactRecorder
+from fallgen.physics.events import FallEvent, ObjectSpec
+from fallgen.world.scene import PlacedObject, build_scene
+
+import mujoco
+
+VARIANT = "study_loft-l1-m1"
+FS = 44100
+
+
+def _drop_event(world, category, variant, material, height, steps=900) -> FallEvent:
+    """A fall event recorded like the rehearsal does (physics-only scene, contact recorder)."""
+    v = world.variant(VARIANT)
+    z = max((z for z in v.zones if z.kind == "floor"),
+            key=lambda z: z.volume.half[0] * z.volume.half[1])
+    inst = world.categories.instance(category, variant, material, 1.0)
+    pos = (float(z.volume.center[0]), float(z.volume.center[1]), height)
+    quat = (0.96, 0.2, 0.1, 0.15)
+    quat = tuple(float(q) for q in np.asarray(quat) / np.linalg.norm(quat))
+    scene = build_scene(v, world.materials, [PlacedObject("target", inst, pos, quat)],
+                        settings=PHYSICS)
+    m, d = scene.model, scene.data()
+    mujoco.mj_forward(m, d)
+    rec = ContactRecorder(m, scene.object_body["target"], scene.geom_owner, scene.geom_material)
+    for _ in range(steps):
+        rec.before_step(d)
+        mujoco.mj_step(m, d)
+        rec.after_step(d)
+    return FallEvent(
+        event_id="test", room_variant=VARIANT, room_kind=v.kind, zone=z.id, zone_kind=z.kind,
+        trial=0, root_seed=0, target=ObjectSpec(category, variant, material, 1.0),
+        audio_material=inst.material.audio, mass_kg=inst.mass_kg, start_pos=pos,
+        start_quat=quat, start_linvel=(0.0, 0.0, 0.0), start_angvel=(0.0, 0.0, 0.0),
+        settle_pos=tuple(map(float, d.qpos[:3])), settle_quat=tuple(map(float, d.qpos[3:7])),
+        settle_com=tuple(map(float, d.qpos[:3])), settle_time_s=steps * m.opt.timestep,
+        steps=steps, distractors=(), occluders=(), contacts=tuple(rec.finish()))
+
+
+@pytest.fixture(scope="module")
+def renderer(world, tmp_path_factory):
+    s = AudioSettings(length_s=2.0, modal=ModalSettings(target_voxels=1500, n_modes=24),
+                      cache_dir=tmp_path_factory.mktemp("modes"))
+    return FallRenderer(world, s)
+
+
+def _rms(p):
+    return float(np.sqrt(np.mean(p ** 2)))
+
+
+def test_fall_sound_both_bodies_deterministic(world, renderer):
+    e = _drop_event(world, "key", "house", "metal/brass", 1.0)
+    assert any(c.kind == "impact" for c in e.contacts)
+    parts = renderer.render_bodies(e, np.random.default_rng(1))
+    assert set(parts) >= {"target", "floor"}
+    for name, p in parts.items():
+        assert np.isfinite(p).all() and _rms(p) > 0, name
+    total = renderer.render(e, np.random.default_rng(1))
+    assert np.array_equal(total, renderer.render(e, np.random.default_rng(1)))
+    assert np.allclose(total, np.sum(list(parts.values()), axis=0))
+    assert total.shape == (2 * FS,)
+    assert np.abs(total).max() < 200.0  # below 140 dB SPL at 1 m
+    # silent before the first contact
+    first = min(c.time_s for c in e.contacts)
+    assert np.abs(total[: int(first * FS) - 2]).max() == 0.0
+
+
+def test_higher_fall_is_louder(world, renderer):
+    low = renderer.render(_drop_event(world, "key", "house", "metal/brass", 0.3),
+                          np.random.default_rng(0))
+    high = renderer.render(_drop_event(world, "key", "house", "metal/brass", 1.5),
+                           np.random.default_rng(0))
+    # first-impact speed ratio sqrt(1.5 / 0.3) = 2.2: the loudest moment is clearly louder
+    assert np.abs(high).max() > 1.5 * np.abs(low).max()
+
+
+def _t60(p):
+    i = int(np.argmax(np.abs(p)))
+    edc = np.cumsum((p[i:] ** 2)[::-1])[::-1]
+    db = 10 * np.log10(edc / edc[0] + 1e-300)
+    k = np.nonzero((db <= -5) & (db >= -35))[0]
+    if len(k) < 2:
+        return 0.0
+    return -60 / np.polyfit(k / FS, db[k], 1)[0]
+
+
+def test_soft_object_thuds_hard_object_rings(world, renderer):
+    def first_hit(e):  # the first impact alone
+        first = next(c for c in e.contacts if c.kind == "impact")
+        return dataclasses.replace(e, contacts=(first,))
+
+    plush = renderer.render_bodies(first_hit(_drop_event(world, "toy", "plush_ball", "fabric",
+                                                         1.0)), np.random.default_rng(0))
+    tile = renderer.render_bodies(first_hit(_drop_event(world, "coaster", "tile", "ceramic",
+                                                        1.0)), np.random.default_rng(0))
+    assert _rms(plush["target"]) > 0  # not silence
+    assert _t60(tile["target"]) > 0.05  # a ceramic tile rings
+    assert _t60(plush["target"]) < 0.2 * _t60(tile["target"])  # a plush ball does not
