@@ -28,7 +28,9 @@ rooms_app = typer.Typer(help="Room variants: list, check, draw, export to MJCF."
                         no_args_is_help=True)
 objects_app = typer.Typer(help="Object categories: list, check.", no_args_is_help=True)
 materials_app = typer.Typer(help="Object and surface materials.", no_args_is_help=True)
+assets_app = typer.Typer(help="Precomputed assets (modal models).", no_args_is_help=True)
 app.add_typer(rooms_app, name="rooms")
+app.add_typer(assets_app, name="assets")
 app.add_typer(objects_app, name="objects")
 app.add_typer(materials_app, name="materials")
 
@@ -281,6 +283,34 @@ def materials_list(data_dir: DataDir = None) -> None:
         t.add_row(s.name, *(f"{a:.2f}" for a in s.absorption), s.impact_material,
                   ",".join(s.uses))
     console.print(t)
+
+
+# --- assets -------------------------------------------------------------------------------------
+
+@assets_app.command("modes")
+def assets_modes(
+    workers: Annotated[int, typer.Option(min=1, help="Processes.")] = 1,
+    cache_dir: Annotated[Optional[Path], typer.Option(
+        "--cache-dir", help="Modal cache (default: $FALLGEN_CACHE/modes or "
+        "~/.cache/fallgen/modes).", show_default=False)] = None,
+    data_dir: DataDir = None,
+) -> None:
+    """Solve and cache the vibration modes of every object shape, furniture part and floor or
+    wall panel a build can need (each once; cached ones are skipped)."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, \
+        TimeElapsedColumn
+
+    from fallgen.audio.catalog import jobs, precompute
+    from fallgen.audio.modes import default_cache_dir
+
+    world = _world(data_dir)
+    total = len(jobs(world))
+    with Progress(TextColumn("modes"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  TextColumn("{task.description}"), console=console) as progress:
+        task = progress.add_task("", total=total)
+        precompute(world, cache_dir=cache_dir, workers=workers,
+                   on_done=lambda label: progress.update(task, advance=1, description=label))
+    console.print(f"{total} modal models in {cache_dir or default_cache_dir()}")
 
 
 # --- entry point --------------------------------------------------------------------------------

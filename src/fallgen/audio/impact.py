@@ -128,21 +128,32 @@ def render(body: SoundingBody, hits: list[ModalHit], length_s: float,
     d = body.loss_factor * w / 2
     wd = w * np.sqrt(np.maximum(1 - (body.loss_factor / 2) ** 2, 1e-6))
     R = body.radiation()[keep]
-    x = np.zeros((len(w), n_out))
+    # modal impulses per hit (sparse: a hit is one sample per mode)
+    idx, gains = [], []
     for hit in hits:
         i0 = int(round(hit.time_s * sample_rate))
         if i0 >= n_out or hit.impulse_ns <= 0:
             continue
         phi = m.shape_at(hit.point)[:, keep].astype(float)  # (3, n)
         n = m.normal_at(hit.point) if hit.direction is None else np.asarray(hit.direction, float)
-        x[:, i0] += (n @ phi) * hit.impulse_ns * half_sine_spectrum(w, hit.duration_s)
+        idx.append(i0)
+        gains.append((n @ phi) * hit.impulse_ns * half_sine_spectrum(w, hit.duration_s))
+    if not idx:
+        return out
+    idx_a, g = np.asarray(idx), np.asarray(gains)  # (H,), (H, n)
     T = 1.0 / sample_rate
     decay = np.exp(-d * T)
+    # each mode is filtered only from its first hit until it has decayed by DECAY_FLOOR_DB
+    # after its last one
+    life = np.ceil(DECAY_FLOOR_DB / 20 * math.log(10) / d * sample_rate).astype(int)
+    first, last = int(idx_a.min()), int(idx_a.max())
     for i in range(len(w)):
-        if not x[i].any() or R[i] == 0:
+        if R[i] == 0 or not g[:, i].any():
             continue
+        end = min(n_out, last + int(life[i]) + 1)
+        x = np.zeros(end - first)
+        np.add.at(x, idx_a - first, g[:, i])
         b = [0.0, decay[i] * math.sin(wd[i] * T) / wd[i]]
         a = [1.0, -2 * decay[i] * math.cos(wd[i] * T), decay[i] ** 2]
-        y = lfilter(b, a, x[i])
-        out += R[i] * y
+        out[first:end] += R[i] * lfilter(b, a, x)
     return out

@@ -125,7 +125,9 @@ def solve_shape(vertices: np.ndarray, faces: np.ndarray, nu: float,
 
 
 def round_nu(nu: float) -> float:
-    return round(round(nu / 0.05) * 0.05, 2)
+    """Poisson ratio to the 0.05 grid models are solved on, at most 0.45 (nearly incompressible
+    rubber, nu 0.49, would lock the bricks: its modes are heavily damped anyway)."""
+    return min(round(round(nu / 0.05) * 0.05, 2), 0.45)
 
 
 def cache_key(vertices: np.ndarray, faces: np.ndarray, nu: float,

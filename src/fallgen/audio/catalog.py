@@ -1,0 +1,99 @@
+"""Every modal model a build can need, and precomputing them into the cache.
+
+Jobs: each object variant in each Poisson ratio its materials have; each furniture part (box or
+cylinder, from the compiled room scenes) in its material's; the floor, wall and ceiling panel of
+every surface finish. :class:`~fallgen.audio.fall.FallRenderer` asks for exactly these, so after
+:func:`precompute` a build solves nothing.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import trimesh
+
+from fallgen.audio.modes import ModalSettings, cache_key, default_cache_dir, modal_model, round_nu
+from fallgen.world.library import World
+
+
+@dataclass(frozen=True)
+class ModalJob:
+    label: str
+    vertices: np.ndarray
+    faces: np.ndarray
+    nu: float
+
+
+def _box(half) -> trimesh.Trimesh:
+    return trimesh.creation.box(tuple(2 * np.asarray(half, float)))
+
+
+def jobs(world: World) -> list[ModalJob]:
+    from fallgen.audio.fall import PATCH_M, PATCH_THICKNESS_M
+    from fallgen.world.scene import build_scene
+
+    out: dict[tuple, ModalJob] = {}
+
+    def add(label, mesh_v, mesh_f, nu):
+        key = (cache_key(mesh_v, mesh_f, nu, ModalSettings()), round_nu(nu))
+        out.setdefault(key, ModalJob(label, mesh_v, mesh_f, nu))
+
+    lib, mats = world.categories, world.materials
+    for cat in lib:
+        for v in cat.variants:
+            g = lib.geometry(cat.id, v.name)
+            for mname in v.materials:
+                add(f"{cat.id}/{v.name}", g.vertices, g.faces, mats.object(mname).poisson_ratio)
+    patch = _box((PATCH_M / 2, PATCH_M / 2, PATCH_THICKNESS_M / 2))
+    for room in world.rooms.values():
+        for variant in room.variants:
+            for face, s in variant.surfaces.items():
+                add(f"panel/{s.impact_material}", patch.vertices, patch.faces,
+                    mats.object(s.impact_material).poisson_ratio)
+            scene = build_scene(variant, mats, [])
+            m = scene.model
+            for gid in range(m.ngeom):
+                owner = scene.geom_owner[gid]
+                if owner in ("floor", "ceiling") or owner.startswith("wall") or owner == "agent":
+                    continue
+                nu = mats.object(scene.geom_material[gid]).poisson_ratio
+                size = m.geom_size[gid]
+                if int(m.geom_type[gid]) == int(mujoco.mjtGeom.mjGEOM_CYLINDER):
+                    c = trimesh.creation.cylinder(float(size[0]), 2 * float(size[1]),
+                                                  sections=32)
+                    add(f"{owner}/cylinder", c.vertices, c.faces, nu)
+                else:
+                    b = _box(size[:3])
+                    add(f"{owner}/box", b.vertices, b.faces, nu)
+    return list(out.values())
+
+
+def _solve(args) -> str:
+    job, settings, cache_dir = args
+    modal_model(job.vertices, job.faces, job.nu, settings, cache_dir)
+    return job.label
+
+
+def precompute(world: World, settings: ModalSettings = ModalSettings(),
+               cache_dir: Path | None = None, workers: int = 1,
+               on_done: Callable[[str], None] | None = None) -> int:
+    """Solve every job not yet cached; returns how many there were in all."""
+    todo = jobs(world)
+    cache_dir = cache_dir or default_cache_dir()
+    args = [(j, settings, cache_dir) for j in todo]
+    if workers <= 1:
+        it: Iterator[str] = map(_solve, args)
+        for label in it:
+            if on_done:
+                on_done(label)
+    else:
+        with ProcessPoolExecutor(workers) as pool:
+            for label in pool.map(_solve, args):
+                if on_done:
+                    on_done(label)
+    return len(todo)
