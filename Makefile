@@ -7,7 +7,7 @@ export MUJOCO_GL ?= egl
 CONFIG ?= configs/full.toml
 WORKERS ?= $(shell nproc 2>/dev/null || echo 2)
 
-.PHONY: setup demo test test-fast bench rehearse generate dataset smoke clean lint
+.PHONY: setup demo test test-fast bench assets rehearse generate dataset smoke clean lint
 
 setup: $(VENV)/.fallgen-installed
 $(VENV)/.fallgen-installed: pyproject.toml scripts/setup.sh
@@ -33,6 +33,12 @@ test-fast: setup
 bench: setup
 	@mkdir -p build
 	$(PY) bench/rehearse_bench.py | tee build/bench-rehearse.json
+	bash ../shared/peers/setup.sh pyimpact > build/peers.env || true
+	$(PY) bench/impact_bench.py $$(sed -n 's/^pyimpact=/--pyimpact /p' build/peers.env) \
+		| tee build/bench-impact.json
+
+assets: setup
+	$(FALLGEN) assets modes --workers $(WORKERS)
 
 rehearse: setup
 	$(FALLGEN) rehearse --config $(CONFIG) --workers $(WORKERS)

@@ -10,43 +10,8 @@ import pytest
 
 from fallgen.audio.fall import AudioSettings, FallRenderer
 from fallgen.audio.modes import ModalSettings
-from fallgen.physics.drop import PHYSICS
-from fallgen.physics.contacts import ContactRecorder
-from fallgen.physics.events import FallEvent, ObjectSpec
-from fallgen.world.scene import PlacedObject, build_scene
 
-import mujoco
-
-VARIANT = "study_loft-l1-m1"
 FS = 44100
-
-
-def _drop_event(world, category, variant, material, height, steps=900) -> FallEvent:
-    """A fall event recorded like the rehearsal does (physics-only scene, contact recorder)."""
-    v = world.variant(VARIANT)
-    z = max((z for z in v.zones if z.kind == "floor"),
-            key=lambda z: z.volume.half[0] * z.volume.half[1])
-    inst = world.categories.instance(category, variant, material, 1.0)
-    pos = (float(z.volume.center[0]), float(z.volume.center[1]), height)
-    quat = (0.96, 0.2, 0.1, 0.15)
-    quat = tuple(float(q) for q in np.asarray(quat) / np.linalg.norm(quat))
-    scene = build_scene(v, world.materials, [PlacedObject("target", inst, pos, quat)],
-                        settings=PHYSICS)
-    m, d = scene.model, scene.data()
-    mujoco.mj_forward(m, d)
-    rec = ContactRecorder(m, scene.object_body["target"], scene.geom_owner, scene.geom_material)
-    for _ in range(steps):
-        rec.before_step(d)
-        mujoco.mj_step(m, d)
-        rec.after_step(d)
-    return FallEvent(
-        event_id="test", room_variant=VARIANT, room_kind=v.kind, zone=z.id, zone_kind=z.kind,
-        trial=0, root_seed=0, target=ObjectSpec(category, variant, material, 1.0),
-        audio_material=inst.material.audio, mass_kg=inst.mass_kg, start_pos=pos,
-        start_quat=quat, start_linvel=(0.0, 0.0, 0.0), start_angvel=(0.0, 0.0, 0.0),
-        settle_pos=tuple(map(float, d.qpos[:3])), settle_quat=tuple(map(float, d.qpos[3:7])),
-        settle_com=tuple(map(float, d.qpos[:3])), settle_time_s=steps * m.opt.timestep,
-        steps=steps, distractors=(), occluders=(), contacts=tuple(rec.finish()))
 
 
 @pytest.fixture(scope="module")
@@ -60,8 +25,8 @@ def _rms(p):
     return float(np.sqrt(np.mean(p ** 2)))
 
 
-def test_fall_sound_both_bodies_deterministic(world, renderer):
-    e = _drop_event(world, "key", "house", "metal/brass", 1.0)
+def test_fall_sound_both_bodies_deterministic(world, renderer, drop_event):
+    e = drop_event(world, "key", "house", "metal/brass", 1.0)
     assert any(c.kind == "impact" for c in e.contacts)
     parts = renderer.render_bodies(e, np.random.default_rng(1))
     assert set(parts) >= {"target", "floor"}
@@ -77,10 +42,10 @@ def test_fall_sound_both_bodies_deterministic(world, renderer):
     assert np.abs(total[: int(first * FS) - 2]).max() == 0.0
 
 
-def test_higher_fall_is_louder(world, renderer):
-    low = renderer.render(_drop_event(world, "key", "house", "metal/brass", 0.3),
+def test_higher_fall_is_louder(world, renderer, drop_event):
+    low = renderer.render(drop_event(world, "key", "house", "metal/brass", 0.3),
                           np.random.default_rng(0))
-    high = renderer.render(_drop_event(world, "key", "house", "metal/brass", 1.5),
+    high = renderer.render(drop_event(world, "key", "house", "metal/brass", 1.5),
                            np.random.default_rng(0))
     # first-impact speed ratio sqrt(1.5 / 0.3) = 2.2: the loudest moment is clearly louder
     assert np.abs(high).max() > 1.5 * np.abs(low).max()
@@ -96,14 +61,14 @@ def _t60(p):
     return -60 / np.polyfit(k / FS, db[k], 1)[0]
 
 
-def test_soft_object_thuds_hard_object_rings(world, renderer):
+def test_soft_object_thuds_hard_object_rings(world, renderer, drop_event):
     def first_hit(e):  # the first impact alone
         first = next(c for c in e.contacts if c.kind == "impact")
         return dataclasses.replace(e, contacts=(first,))
 
-    plush = renderer.render_bodies(first_hit(_drop_event(world, "toy", "plush_ball", "fabric",
+    plush = renderer.render_bodies(first_hit(drop_event(world, "toy", "plush_ball", "fabric",
                                                          1.0)), np.random.default_rng(0))
-    tile = renderer.render_bodies(first_hit(_drop_event(world, "coaster", "tile", "ceramic",
+    tile = renderer.render_bodies(first_hit(drop_event(world, "coaster", "tile", "ceramic",
                                                         1.0)), np.random.default_rng(0))
     assert _rms(plush["target"]) > 0  # not silence
     assert _t60(tile["target"]) > 0.05  # a ceramic tile rings

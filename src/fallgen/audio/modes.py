@@ -27,7 +27,7 @@ from fallgen.audio.voxelize import VoxelSolid, voxel_size, voxelize
 
 E_REF = 1.0e10  # Pa
 RHO_REF = 1000.0  # kg/m^3
-SOLVER_VERSION = 1  # bump when the solver changes what it produces
+SOLVER_VERSION = 2  # bump when the solver changes what it produces
 
 
 @dataclass(frozen=True)
