@@ -22,7 +22,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import lfilter
 
 from fallgen.audio.hertz import half_sine_spectrum
 from fallgen.audio.modes import ModalModel
@@ -107,14 +106,68 @@ def rigid_body_pressure(volume_m3: float, mass_kg: float, hits: list[ModalHit], 
     return out
 
 
+#: Samples per block of the modal synthesis.
+BLOCK = 128
+#: A mode is dropped once it has decayed DECAY_FLOOR_DB below its own peak (and no hit is left).
+PRUNE = 10 ** (-DECAY_FLOOR_DB / 20)
+
+
+def modal_sum(z: np.ndarray, c: np.ndarray, idx: np.ndarray, g: np.ndarray, n_out: int,
+              block: int = BLOCK) -> np.ndarray:
+    """sum_i c_i Im(sum_h g_hi z_i^(n - n_h)) over samples n >= n_h: damped sinusoids started
+    by impulses, computed block by block from each mode's complex state (one small matrix
+    product per block for all live modes; after the last hit a mode that has decayed by
+    DECAY_FLOOR_DB below its own peak is dropped).
+
+    ``z``: (M,) per-sample complex factor e^((-d + i w_d) T); ``c``: (M,) output weights;
+    ``idx``: (H,) start samples; ``g``: (H, M) real gains."""
+    out = np.zeros(n_out)
+    order = np.argsort(idx, kind="stable")
+    idx, g = idx[order], g[order] * c[None, :]
+    live = c != 0
+    z, idx_ok = z[live], idx < n_out
+    idx, g = idx[idx_ok], g[idx_ok][:, live]
+    if len(z) == 0 or len(idx) == 0:
+        return out
+    k = np.arange(block)
+    Z = z[:, None] ** k[None, :]  # (M, B)
+    zB = z ** block
+    s = np.zeros(len(z), complex)  # state at the start of the block (already weighted by c)
+    peak = np.zeros(len(z))
+    h, H = 0, len(idx)
+    b0 = int(idx[0]) // block * block
+    while b0 < n_out:
+        L = min(block, n_out - b0)
+        h1 = int(np.searchsorted(idx, b0 + L, side="left"))
+        act = np.nonzero(s)[0]
+        y = (s[act] @ Z[act, :L]).imag if len(act) else np.zeros(L)
+        carry = 0.0
+        if h1 > h:
+            o = idx[h:h1] - b0
+            gh = g[h:h1]  # (m, M)
+            for j in range(h1 - h):
+                y[o[j]:] += (gh[j] @ Z[:, :L - o[j]]).imag
+            carry = (gh * (z[None, :] ** (block - o)[:, None])).sum(0)
+            h = h1
+        out[b0:b0 + L] = y
+        s = s * zB + carry
+        a = np.abs(s)
+        np.maximum(peak, a, out=peak)
+        if h >= H:  # no more hits: drop modes that have died away
+            s[a < PRUNE * peak] = 0.0
+        if h >= H and not s.any():
+            break
+        b0 += block
+    return out
+
+
 def render(body: SoundingBody, hits: list[ModalHit], length_s: float,
            sample_rate: int = 44100, volume_m3: float | None = None) -> np.ndarray:
     """Pressure at 1 m (Pa, float64) of ``body`` ringing from ``hits``, ``length_s`` long.
 
-    Each mode is a two-pole resonator (impulse-invariant: its impulse response is exactly
-    e^(-d t) sin(w_d t) / w_d at the samples) driven by the hits' modal impulses, so the cost
-    is one recursive filter per mode whatever the number of hits (scrapes are many small hits).
-    With ``volume_m3`` the body's rigid-body acceleration noise is added."""
+    Each mode's response to a hit is e^(-d t) sin(w_d t) / w_d exactly at the samples (what an
+    impulse-invariant two-pole resonator computes), summed over modes and hits by
+    :func:`modal_sum`. With ``volume_m3`` the body's rigid-body acceleration noise is added."""
     n_out = int(round(length_s * sample_rate))
     out = np.zeros(n_out)
     if volume_m3 is not None:
@@ -142,18 +195,6 @@ def render(body: SoundingBody, hits: list[ModalHit], length_s: float,
         return out
     idx_a, g = np.asarray(idx), np.asarray(gains)  # (H,), (H, n)
     T = 1.0 / sample_rate
-    decay = np.exp(-d * T)
-    # each mode is filtered only from its first hit until it has decayed by DECAY_FLOOR_DB
-    # after its last one
-    life = np.ceil(DECAY_FLOOR_DB / 20 * math.log(10) / d * sample_rate).astype(int)
-    first, last = int(idx_a.min()), int(idx_a.max())
-    for i in range(len(w)):
-        if R[i] == 0 or not g[:, i].any():
-            continue
-        end = min(n_out, last + int(life[i]) + 1)
-        x = np.zeros(end - first)
-        np.add.at(x, idx_a - first, g[:, i])
-        b = [0.0, decay[i] * math.sin(wd[i] * T) / wd[i]]
-        a = [1.0, -2 * decay[i] * math.cos(wd[i] * T), decay[i] ** 2]
-        out[first:end] += R[i] * lfilter(b, a, x)
+    z = np.exp((-d + 1j * wd) * T)
+    out += modal_sum(z, R / wd, idx_a, g, n_out)
     return out

@@ -27,7 +27,7 @@ from fallgen.audio.voxelize import VoxelSolid, voxel_size, voxelize
 
 E_REF = 1.0e10  # Pa
 RHO_REF = 1000.0  # kg/m^3
-SOLVER_VERSION = 2  # bump when the solver changes what it produces
+SOLVER_VERSION = 3  # bump when the solver changes what it produces
 
 
 @dataclass(frozen=True)
@@ -115,6 +115,13 @@ def solve_shape(vertices: np.ndarray, faces: np.ndarray, nu: float,
     ext = v.max(axis=0) - v.min(axis=0)
     h = voxel_size(abs(float(mesh.volume)), ext, settings.target_voxels)
     solid = voxelize(v, faces, h, settings.sub_samples)
+    # Thin shells (a can, a toaster) fill few voxels of their volume-based size: coarsen until
+    # the count is near the target (a shell's count goes as 1 / h^2).
+    for _ in range(4):
+        if solid.n_voxels <= 1.5 * settings.target_voxels:
+            break
+        h *= (solid.n_voxels / settings.target_voxels) ** 0.5
+        solid = voxelize(v, faces, h, settings.sub_samples)
     vm = solve_modes(solid.occupied, h, E=E_REF, nu=nu, rho=RHO_REF,
                      n_modes=settings.n_modes, origin=solid.origin,
                      stiffness_scale=solid.stiffness_scale, density_scale=solid.fill)
