@@ -22,7 +22,8 @@ demo: setup
 	$(FALLGEN) objects list
 	$(FALLGEN) objects show -o demo/objects.png
 	$(FALLGEN) rehearse --config configs/demo.toml
-	@echo "demo: room plans in demo/rooms/, objects in demo/objects.png, fall events in demo/rehearsal/, MJCF in demo/ (python -m mujoco.viewer --mjcf=demo/kitchen_galley-l1-m1.xml)"
+	$(FALLGEN) sounds demo/rehearsal/kitchen_galley-l1-m1.parquet -o demo/sounds --limit 3
+	@echo "demo: room plans in demo/rooms/, objects in demo/objects.png, fall events in demo/rehearsal/, dry fall sounds (WAV in Pa at 1 m + spectrograms) in demo/sounds/, MJCF in demo/ (python -m mujoco.viewer --mjcf=demo/kitchen_galley-l1-m1.xml)"
 
 test: setup
 	$(PY) -m pytest -q -n 2

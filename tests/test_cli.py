@@ -11,7 +11,7 @@ from fallgen.cli import main
 
 COMMANDS = [[], ["rooms"], ["rooms", "list"], ["rooms", "check"], ["rooms", "show"],
             ["rooms", "export"], ["objects"], ["objects", "list"], ["objects", "show"], ["materials"],
-            ["materials", "list"], ["rehearse"]]
+            ["materials", "list"], ["rehearse"], ["assets"], ["assets", "modes"], ["sounds"]]
 
 
 def run(capsys, *args: str) -> tuple[int, str, str]:
@@ -167,3 +167,36 @@ def test_rehearse_runs(capsys, tmp_path):
     assert code == 0, err
     assert (tmp_path / "o/rehearsal/kitchen_galley-l1-m1.parquet").exists()
     assert "rehearsal by zone kind" in out and "events kept of" in out
+
+
+def test_sounds_writes_wav_and_png(capsys, tmp_path, world, monkeypatch):
+    """`fallgen sounds`: a WAV (float32 pascals) and a spectrogram per event; a file that is
+    not a rehearsal file is a one-line error, exit 2."""
+    import numpy as np
+    import pyarrow.parquet as pq
+    import soundfile as sf
+
+    from fallgen.config import RehearseConfig
+    from fallgen.physics.drop import run_trial
+    from fallgen.physics.events import to_table
+
+    monkeypatch.setenv("FALLGEN_CACHE", str(tmp_path / "cache"))
+    v = world.variant("study_loft-l1-m1")
+    small = ("key", "pen", "spoon", "shirt_button", "coaster", "knife", "fork", "golf_ball")
+    ev = next(o.event for z in v.zones for t in range(3)
+              for o in [run_trial(world, v, z, t, RehearseConfig(), 5)]
+              if o.event is not None and o.event.target.category in small)
+    f = tmp_path / "ev.parquet"
+    pq.write_table(to_table([ev]), f)
+    code, out, err = run(capsys, "sounds", str(f), "-o", str(tmp_path / "out"))
+    assert code in (0, None), err
+    stem = ev.event_id.replace("/", "_")
+    data, fs = sf.read(tmp_path / "out" / f"{stem}.wav", dtype="float32")
+    assert fs == 44100 and len(data) == 2 * fs and np.isfinite(data).all()
+    assert np.abs(data).max() > 0
+    assert (tmp_path / "out" / f"{stem}.png").stat().st_size > 1000
+    bad = tmp_path / "bad.parquet"
+    bad.write_bytes(b"nope")
+    code, out, err = run(capsys, "sounds", str(bad), "-o", str(tmp_path / "o2"))
+    assert code == 2 and err.strip().count("\n") == 0 and "bad.parquet" in err
+    assert not (tmp_path / "o2").exists()

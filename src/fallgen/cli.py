@@ -313,6 +313,43 @@ def assets_modes(
     console.print(f"{total} modal models in {cache_dir or default_cache_dir()}")
 
 
+@app.command()
+def sounds(
+    events: Annotated[Path, typer.Argument(help="A rehearsal Parquet file (fall events).")],
+    out: Annotated[Path, typer.Option("-o", "--out", help="Directory for WAV and PNG files.")],
+    limit: Annotated[int, typer.Option(min=1, help="How many events (from the first).")] = 3,
+    seed: Annotated[int, typer.Option(help="Seed of the scrape/roll texture.")] = 0,
+    data_dir: DataDir = None,
+) -> None:
+    """Render the dry (anechoic) sound of fall events: a float32 WAV in pascals at 1 m and a
+    spectrogram PNG per event. (Room acoustics and the binaural render come later.)"""
+    from fallgen.audio.fall import FallRenderer
+    from fallgen.audio.preview import spectrogram_png, write_wav
+    from fallgen.physics.rehearse import read_events
+
+    if not events.is_file():
+        raise InputError(events, "<file>", "no such rehearsal file")
+    try:
+        evs = read_events(events)[:limit]
+    except Exception as e:  # pyarrow raises several types for a bad file
+        raise InputError(events, "<parquet>", f"not a fall-event file ({type(e).__name__})")
+    world = _world(data_dir)
+    r = FallRenderer(world)
+    import numpy as np
+
+    for i, e in enumerate(evs):
+        rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(i,)))
+        p = r.render(e, rng)
+        stem = e.event_id.replace("/", "_")
+        write_wav(out / f"{stem}.wav", p, r.s.sample_rate)
+        spectrogram_png(out / f"{stem}.png", p, r.s.sample_rate,
+                        f"{e.target.category} ({e.target.material}) in {e.zone_kind}")
+        peak_db = 20 * np.log10(max(np.abs(p).max(), 1e-12) / 20e-6)
+        console.print(f"{stem}: {e.target.category}, {len(e.contacts)} contacts, "
+                      f"peak {peak_db:.0f} dB SPL at 1 m")
+    console.print(f"wrote {len(evs)} WAV + PNG to {out}")
+
+
 # --- entry point --------------------------------------------------------------------------------
 
 def main(argv: list[str] | None = None) -> None:
