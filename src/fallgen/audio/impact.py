@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -45,25 +46,22 @@ class SoundingBody:
     mass_kg: float
     contact_radius_m: float
 
-    def radiation(self) -> np.ndarray:
-        """R_i: pressure (Pa) at 1 m per metre of modal displacement, per mode."""
+    @cached_property
+    def _radiation(self) -> np.ndarray:
         return radiation_factors(self.modes)
+
+    def radiation(self) -> np.ndarray:
+        """R_i: pressure (Pa) at 1 m per metre of modal displacement, per mode (computed once
+        per body)."""
+        return self._radiation
 
 
 def radiation_factors(m: ModalModel, r: float = REFERENCE_DISTANCE_M) -> np.ndarray:
-    a = m.area.astype(float)  # (S, 3)
-    phi = m.shapes.astype(float)  # (S, 3, n)
-    an = np.einsum("sc,scn->sn", a, phi)  # (a . phi) per node and mode
-    centre = (np.linalg.norm(a, axis=1)[:, None] * m.points).sum(0) / np.linalg.norm(a, axis=1).sum()
-    Q = an.sum(axis=0)  # (n,)
-    D = np.einsum("sn,sc->nc", an, m.points - centre)  # (n, 3)
+    Q, D, A = m.surface_moments()
     w = m.omega
     k = w / C_AIR
     p_low = RHO_AIR * w ** 2 / (4 * math.pi * r) * np.sqrt(Q ** 2 + k ** 2 * (D ** 2).sum(1) / 3)
-    area = np.linalg.norm(a, axis=1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        nn = np.where(area[:, None] > 0, an / np.maximum(area, 1e-30)[:, None], 0.0)
-    p_high = RHO_AIR * C_AIR * w * np.sqrt((area[:, None] * nn ** 2).sum(0) / (4 * math.pi)) / r
+    p_high = RHO_AIR * C_AIR * w * np.sqrt(A / (4 * math.pi)) / r
     return np.minimum(p_low, p_high)
 
 
@@ -107,7 +105,7 @@ def rigid_body_pressure(volume_m3: float, mass_kg: float, hits: list[ModalHit], 
 
 
 #: Samples per block of the modal synthesis.
-BLOCK = 128
+BLOCK = 512
 #: A mode is dropped once it has decayed DECAY_FLOOR_DB below its own peak (and no hit is left).
 PRUNE = 10 ** (-DECAY_FLOOR_DB / 20)
 

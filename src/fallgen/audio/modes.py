@@ -49,14 +49,34 @@ class ModalModel:
     h: float  # voxel side, m
     n_voxels: int
     volume_error: float
+    #: Surface moments of each mode, for radiation (computed once, carried through scaling):
+    #: Q (n,) net volume displacement sum(a . phi), D (n, 3) its first moment about the area
+    #: centroid, A (n,) sum(|a| (n . phi)^2).
+    moments: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def surface_moments(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if self.moments is not None:
+            return self.moments
+        a = self.area.astype(float)
+        an = np.einsum("sc,scn->sn", a, self.shapes.astype(float))
+        area = np.linalg.norm(a, axis=1)
+        centre = (area[:, None] * self.points).sum(0) / area.sum()
+        Q = an.sum(axis=0)
+        D = np.einsum("sn,sc->nc", an, self.points - centre)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            A = np.where(area[:, None] > 0, an ** 2 / np.maximum(area, 1e-30)[:, None], 0.0).sum(0)
+        object.__setattr__(self, "moments", (Q, D, A))
+        return Q, D, A
 
     def scaled(self, youngs_modulus_pa: float, density_kg_m3: float, scale: float) -> ModalModel:
         """The same shape in a material, ``scale`` times the size."""
         k = np.sqrt(youngs_modulus_pa * RHO_REF / (E_REF * density_kg_m3)) / scale
         a = np.sqrt(RHO_REF / density_kg_m3) * scale ** -1.5
+        Q, D, A = self.surface_moments()
         return ModalModel(self.omega * k, self.points * scale, self.area * scale ** 2,
                           (self.shapes * a).astype(np.float32), self.nu, self.h * scale,
-                          self.n_voxels, self.volume_error)
+                          self.n_voxels, self.volume_error,
+                          (Q * a * scale ** 2, D * a * scale ** 3, A * a * a * scale ** 2))
 
     def shape_at(self, point: np.ndarray) -> np.ndarray:
         """Mode shapes (3, n) at the surface node nearest to ``point`` (object frame)."""
