@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from pathlib import Path
 
 from fallgen.fields import Fields, load_toml
+from fallgen.physics.settle import SettleCriteria
 
 
 @dataclass(frozen=True)
@@ -17,10 +18,8 @@ class RehearseConfig:
     drop_height_m: tuple[float, float] = (1.5, 2.8)
     push_speed_mps: float = 0.15
     spin_radps: float = 2.0
-    settle_lin_mps: float = 0.01
-    settle_ang_radps: float = 0.1
-    settle_hold_s: float = 0.25
-    timeout_s: float = 6.0
+    #: from the flat keys settle_lin_mps, settle_ang_radps, settle_hold_s, timeout_s
+    settle: SettleCriteria = SettleCriteria()
 
 
 @dataclass(frozen=True)
@@ -29,11 +28,6 @@ class BuildConfig:
     out: Path
     rehearse: RehearseConfig
     file: Path
-
-    def as_dict(self) -> dict:
-        d = asdict(self)
-        d["out"], d["file"] = str(self.out), str(self.file)
-        return d
 
 
 def _rehearse(f: Fields) -> RehearseConfig:
@@ -45,10 +39,12 @@ def _rehearse(f: Fields) -> RehearseConfig:
         drop_height_m=f.floats("drop_height_m", n=2, lo=0.05, hi=6.0, increasing=True),
         push_speed_mps=f.float("push_speed_mps", lo=0.0, hi=5.0),
         spin_radps=f.float("spin_radps", lo=0.0, hi=50.0),
-        settle_lin_mps=f.float("settle_lin_mps", positive=True, hi=1.0),
-        settle_ang_radps=f.float("settle_ang_radps", positive=True, hi=10.0),
-        settle_hold_s=f.float("settle_hold_s", positive=True, hi=5.0),
-        timeout_s=f.float("timeout_s", positive=True, hi=60.0),
+        settle=SettleCriteria(
+            lin_tol_mps=f.float("settle_lin_mps", positive=True, hi=1.0),
+            ang_tol_radps=f.float("settle_ang_radps", positive=True, hi=10.0),
+            hold_s=f.float("settle_hold_s", positive=True, hi=5.0),
+            timeout_s=f.float("timeout_s", positive=True, hi=60.0),
+        ),
     )
     if r.max_trials_per_zone < r.events_per_zone:
         raise f.error("max_trials_per_zone", "must be at least events_per_zone")

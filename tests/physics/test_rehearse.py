@@ -15,6 +15,7 @@ import pytest
 
 from fallgen.config import BuildConfig, RehearseConfig
 from fallgen.physics.drop import replay
+from fallgen.physics.settle import SettleCriteria
 from fallgen.physics.rehearse import read_events, rehearse, rehearse_variant
 
 ROOMS = ["kitchen_galley-l1-m1", "study_office-l2-m2"]
@@ -22,7 +23,8 @@ ROOMS = ["kitchen_galley-l1-m1", "study_office-l2-m2"]
 
 def _cfg(tmp_path: Path, **kw) -> BuildConfig:
     r = RehearseConfig(rooms=",".join(ROOMS), zones="z0[0-3]", events_per_zone=1,
-                       max_trials_per_zone=3, timeout_s=4.0)
+                       max_trials_per_zone=3,
+                       settle=SettleCriteria(timeout_s=4.0))
     return BuildConfig(2022, tmp_path, dataclasses.replace(r, **kw), tmp_path / "cfg.toml")
 
 

@@ -214,11 +214,6 @@ def _simulate(world: World, variant: RoomVariant, objs: list[PlacedObject], linv
     return res, rec.finish(), d.xipos[b].copy(), float(m.body_mass[b]), overlap
 
 
-def criteria_of(cfg: RehearseConfig) -> SettleCriteria:
-    return SettleCriteria(cfg.settle_lin_mps, cfg.settle_ang_radps, cfg.settle_hold_s,
-                          cfg.timeout_s)
-
-
 def run_trial(world: World, variant: RoomVariant, zone: Zone, trial: int,
               cfg: RehearseConfig, root_seed: int) -> TrialOutcome:
     """Run one seeded trial; the outcome says whether it was kept, and why not."""
@@ -260,7 +255,7 @@ def run_trial(world: World, variant: RoomVariant, zone: Zone, trial: int,
     start = (float(x), float(y), z)
     objs = _scene_objects(world, target, start, quat, distractors, occluders)
     res, contacts, com, mass, overlap = _simulate(
-        world, variant, objs, linvel, angvel, criteria_of(cfg),
+        world, variant, objs, linvel, angvel, cfg.settle,
         keep=lambda r, c: _judge(variant, zone, r, c) == "kept")
     if overlap:
         return TrialOutcome("start_overlap", None, cid)
