@@ -12,7 +12,7 @@ import shapely
 import trimesh
 from shapely.geometry import LineString, Polygon
 
-from ._common import AXIS_EPS
+from ._common import AXIS_EPS, capped_ring_faces
 from .convex2d import concavity_2d, convex_parts_2d
 from .profiles import (
     _profile_array,
@@ -84,17 +84,7 @@ def revolve(profile: Any, segments: int = 48, *, max_len: float | None = None,
     rv[..., 1] = rings[:, 0, None] * np.sin(th)
     rv[..., 2] = rings[:, 1, None]
     verts = np.vstack([[0.0, 0.0, p[0, 1]], rv.reshape(-1, 3), [0.0, 0.0, p[-1, 1]]])
-    idx = 1 + np.arange(n * segments).reshape(n, segments)
-    k = np.arange(segments)
-    k1 = (k + 1) % segments
-    faces = [np.column_stack([np.zeros(segments, int), idx[0, k1], idx[0, k]])]
-    for i in range(n - 1):
-        a, b, c, d = idx[i, k], idx[i, k1], idx[i + 1, k1], idx[i + 1, k]
-        faces.append(np.column_stack([a, b, c]))
-        faces.append(np.column_stack([a, c, d]))
-    top = len(verts) - 1
-    faces.append(np.column_stack([np.full(segments, top), idx[-1, k], idx[-1, k1]]))
-    f = np.vstack(faces)
+    f = capped_ring_faces(n, segments)
     if _signed_area(p) < 0:  # clockwise profile: flip every face
         f = f[:, ::-1]
     return trimesh.Trimesh(verts, f, process=False)

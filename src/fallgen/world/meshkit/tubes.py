@@ -10,6 +10,8 @@ from typing import Any
 import numpy as np
 import trimesh
 
+from ._common import capped_ring_faces
+
 # =============================================================================================
 # Tubes
 # =============================================================================================
@@ -29,16 +31,7 @@ class Sweep:
     def mesh(self) -> trimesh.Trimesh:
         n, m, _ = self.rings.shape
         verts = np.vstack([self.start[None], self.rings.reshape(-1, 3), self.end[None]])
-        idx = 1 + np.arange(n * m).reshape(n, m)
-        k = np.arange(m)
-        k1 = (k + 1) % m
-        faces = [np.column_stack([np.zeros(m, int), idx[0, k1], idx[0, k]])]
-        for i in range(n - 1):
-            a, b, c, d = idx[i, k], idx[i, k1], idx[i + 1, k1], idx[i + 1, k]
-            faces += [np.column_stack([a, b, c]), np.column_stack([a, c, d])]
-        last = len(verts) - 1
-        faces.append(np.column_stack([np.full(m, last), idx[-1, k], idx[-1, k1]]))
-        mesh = trimesh.Trimesh(verts, np.vstack(faces), process=False)
+        mesh = trimesh.Trimesh(verts, capped_ring_faces(n, m), process=False)
         if mesh.volume < 0:
             mesh.invert()
         return mesh
