@@ -87,6 +87,17 @@ def flip_flat_caps(mesh: trimesh.Trimesh, *, max_angle_deg: float = 150.0,
             best = min(best, math.acos(max(-1.0, min(1.0, dot(u, w) / (nu * nw)))))
         return best
 
+    def replace(edge_face: dict, fi: int, gi: int, old_f, old_g, t1, t2) -> None:
+        """Faces fi, gi (old_f, old_g) become t1, t2; keep the directed-edge index current."""
+        f[fi], f[gi] = t1, t2
+        for t in (old_f, old_g):
+            for e in ((t[0], t[1]), (t[1], t[2]), (t[2], t[0])):
+                edge_face.pop(e, None)
+        for t, ti in ((t1, fi), (t2, gi)):
+            edge_face[(t[0], t[1])] = ti
+            edge_face[(t[1], t[2])] = ti
+            edge_face[(t[2], t[0])] = ti
+
     for _ in range(passes):
         ang = trimesh.triangles.angles(v[f])
         bad = np.nonzero(ang.max(axis=1) > math.radians(max_angle_deg))[0]
@@ -124,13 +135,7 @@ def flip_flat_caps(mesh: trimesh.Trimesh, *, max_angle_deg: float = 150.0,
                 t1, t2 = (a, b, d), (c, a, d)
                 if min(min_angle(t1), min_angle(t2)) <= min_angle((a, b, c)):
                     continue
-                f[fi], f[gi] = t1, t2
-                for e2 in ((a, b), (b, c), (c, a), (g[0], g[1]), (g[1], g[2]), (g[2], g[0])):
-                    edge_face.pop(e2, None)
-                for tt, ti in ((t1, fi), (t2, gi)):
-                    edge_face[(tt[0], tt[1])] = ti
-                    edge_face[(tt[1], tt[2])] = ti
-                    edge_face[(tt[2], tt[0])] = ti
+                replace(edge_face, fi, gi, (a, b, c), g, t1, t2)
                 done.update((fi, gi))
                 flipped += 1
                 continue
@@ -139,15 +144,7 @@ def flip_flat_caps(mesh: trimesh.Trimesh, *, max_angle_deg: float = 150.0,
                 continue
             if min(min_angle(t1), min_angle(t2)) <= min(min_angle((a, b, c)), min_angle(g)) + 1e-9:
                 continue
-            f[fi], f[gi] = t1, t2
-            for e in ((a, b), (b, c), (c, a)):
-                edge_face.pop(e, None)
-            for e in ((g[0], g[1]), (g[1], g[2]), (g[2], g[0])):
-                edge_face.pop(e, None)
-            for t, ti in ((t1, fi), (t2, gi)):
-                edge_face[(t[0], t[1])] = ti
-                edge_face[(t[1], t[2])] = ti
-                edge_face[(t[2], t[0])] = ti
+            replace(edge_face, fi, gi, (a, b, c), g, t1, t2)
             done.update((fi, gi))
             flipped += 1
         if not flipped:
