@@ -15,7 +15,6 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
-import trimesh
 
 from fallgen.audio.modes import ModalSettings, cache_key, default_cache_dir, modal_model, round_nu
 from fallgen.world.library import World
@@ -29,12 +28,8 @@ class ModalJob:
     nu: float
 
 
-def _box(half) -> trimesh.Trimesh:
-    return trimesh.creation.box(tuple(2 * np.asarray(half, float)))
-
-
 def jobs(world: World) -> list[ModalJob]:
-    from fallgen.audio.fall import PATCH_M, PATCH_THICKNESS_M
+    from fallgen.audio.fall import is_panel, panel_mesh, part_mesh
     from fallgen.world.scene import build_scene
 
     out: dict[tuple, ModalJob] = {}
@@ -49,7 +44,7 @@ def jobs(world: World) -> list[ModalJob]:
             g = lib.geometry(cat.id, v.name)
             for mname in v.materials:
                 add(f"{cat.id}/{v.name}", g.vertices, g.faces, mats.object(mname).poisson_ratio)
-    patch = _box((PATCH_M / 2, PATCH_M / 2, PATCH_THICKNESS_M / 2))
+    patch = panel_mesh()
     for room in world.rooms.values():
         for variant in room.variants:
             for face, s in variant.surfaces.items():
@@ -59,17 +54,13 @@ def jobs(world: World) -> list[ModalJob]:
             m = scene.model
             for gid in range(m.ngeom):
                 owner = scene.geom_owner[gid]
-                if owner in ("floor", "ceiling") or owner.startswith("wall") or owner == "agent":
+                if is_panel(owner) or owner == "agent":
                     continue
-                nu = mats.object(scene.geom_material[gid]).poisson_ratio
-                size = m.geom_size[gid]
-                if int(m.geom_type[gid]) == int(mujoco.mjtGeom.mjGEOM_CYLINDER):
-                    c = trimesh.creation.cylinder(float(size[0]), 2 * float(size[1]),
-                                                  sections=32)
-                    add(f"{owner}/cylinder", c.vertices, c.faces, nu)
-                else:
-                    b = _box(size[:3])
-                    add(f"{owner}/box", b.vertices, b.faces, nu)
+                gtype = int(m.geom_type[gid])
+                mesh = part_mesh(gtype, m.geom_size[gid])
+                kind = "cylinder" if gtype == int(mujoco.mjtGeom.mjGEOM_CYLINDER) else "box"
+                add(f"{owner}/{kind}", mesh.vertices, mesh.faces,
+                    mats.object(scene.geom_material[gid]).poisson_ratio)
     return list(out.values())
 
 

@@ -62,21 +62,29 @@ class _Body:
     frame_pos: np.ndarray  # world position of the body frame the modes live in
     frame_mat: np.ndarray  # (3, 3) world rotation of that frame
     material: ObjectMaterial
+    patch: bool = False  # a floor/wall/ceiling panel standing in for a large surface
     hits: list[ModalHit] = field(default_factory=list)
 
     def local(self, p_world) -> np.ndarray:
         return self.frame_mat.T @ (np.asarray(p_world, float) - self.frame_pos)
 
 
-def _box_model(size: np.ndarray, nu: float, s: ModalSettings, cache: Path | None) -> ModalModel:
-    box = trimesh.creation.box(tuple(2 * np.asarray(size, float)))
-    return modal_model(box.vertices, box.faces, nu, s, cache)
+def is_panel(owner: str) -> bool:
+    """Whether a geom owner is a room surface (rendered as a panel, not as its own slab)."""
+    return owner in ("floor", "ceiling") or owner.startswith("wall")
 
 
-def _cylinder_model(radius: float, half: float, nu: float, s: ModalSettings,
-                    cache: Path | None) -> ModalModel:
-    cyl = trimesh.creation.cylinder(radius, 2 * half, sections=32)
-    return modal_model(cyl.vertices, cyl.faces, nu, s, cache)
+def panel_mesh() -> trimesh.Trimesh:
+    """The free panel that stands in for a floor, wall or ceiling."""
+    return trimesh.creation.box((PATCH_M, PATCH_M, PATCH_THICKNESS_M))
+
+
+def part_mesh(gtype: int, size: np.ndarray) -> trimesh.Trimesh:
+    """A furniture part's solid from its MuJoCo geom: a cylinder (radius, half height) or a
+    box (half sizes)."""
+    if gtype == int(mujoco.mjtGeom.mjGEOM_CYLINDER):
+        return trimesh.creation.cylinder(float(size[0]), 2 * float(size[1]), sections=32)
+    return trimesh.creation.box(tuple(2 * np.asarray(size[:3], float)))
 
 
 def _sounding(ref: ModalModel, mat: ObjectMaterial, scale: float, mass: float, radius: float,
@@ -95,18 +103,19 @@ class FallRenderer:
         self._models: dict[tuple, ModalModel] = {}
 
     # -- bodies ---------------------------------------------------------------------------
-    def _object_ref(self, category: str, variant: str, nu: float) -> ModalModel:
-        key = ("obj", category, variant, round(nu, 2))
+    def _ref(self, key: tuple, mesh) -> ModalModel:
+        """The reference modal model of a mesh (``mesh()`` builds it when not yet loaded)."""
         if key not in self._models:
-            g = self.world.categories.geometry(category, variant)
-            self._models[key] = modal_model(g.vertices, g.faces, nu, self.s.modal,
-                                            self.s.cache_dir)
+            v, f, nu = mesh()
+            self._models[key] = modal_model(v, f, nu, self.s.modal, self.s.cache_dir)
         return self._models[key]
 
     def _object_body(self, spec, pos, mat33) -> _Body:
         inst = self.world.categories.instance(spec.category, spec.variant, spec.material,
                                               spec.scale)
-        ref = self._object_ref(spec.category, spec.variant, inst.material.poisson_ratio)
+        nu = inst.material.poisson_ratio
+        ref = self._ref(("obj", spec.category, spec.variant, nu),
+                        lambda: (inst.geometry.vertices, inst.geometry.faces, nu))
         ext = inst.extents_m
         radius = float(np.clip(0.25 * np.min(ext), 0.001, 0.05))
         vol = inst.geometry.volume_m3 * inst.scale ** 3
@@ -116,39 +125,19 @@ class FallRenderer:
     def _static_body(self, m: mujoco.MjModel, d: mujoco.MjData, gid: int, material: str,
                      owner: str) -> _Body:
         mat = self.world.materials.object(material)
-        size = m.geom_size[gid].copy()
-        gtype = int(m.geom_type[gid])
+        nu = mat.poisson_ratio
         pos, rot = d.geom_xpos[gid].copy(), d.geom_xmat[gid].reshape(3, 3).copy()
-        if owner == "floor" or owner.startswith("wall") or owner == "ceiling":
-            half = np.array([PATCH_M / 2, PATCH_M / 2, PATCH_THICKNESS_M / 2])
-            ref = self._cached(("box", *np.round(half, 4), round(mat.poisson_ratio, 2)),
-                               lambda: _box_model(half, mat.poisson_ratio, self.s.modal,
-                                                  self.s.cache_dir))
-            vol = float(np.prod(2 * half))
-            body = _sounding(ref, mat, 1.0, mat.density_kg_m3 * vol, math.inf,
-                             MOUNTED_LOSS_FACTOR)
-            b = _Body(body, vol, pos, rot, mat)
-            b.patch = True  # type: ignore[attr-defined]
-            return b
-        if gtype == int(mujoco.mjtGeom.mjGEOM_CYLINDER):
-            ref = self._cached(("cyl", round(size[0], 4), round(size[1], 4),
-                                round(mat.poisson_ratio, 2)),
-                               lambda: _cylinder_model(size[0], size[1], mat.poisson_ratio,
-                                                       self.s.modal, self.s.cache_dir))
-            vol = math.pi * size[0] ** 2 * 2 * size[1]
+        if is_panel(owner):
+            key, mesh = ("panel", nu), panel_mesh()
+            vol = PATCH_M * PATCH_M * PATCH_THICKNESS_M
         else:
-            half = size[:3]
-            ref = self._cached(("box", *np.round(half, 4), round(mat.poisson_ratio, 2)),
-                               lambda: _box_model(half, mat.poisson_ratio, self.s.modal,
-                                                  self.s.cache_dir))
-            vol = float(np.prod(2 * half))
+            gtype, size = int(m.geom_type[gid]), m.geom_size[gid].copy()
+            key, mesh = ("part", gtype, *map(float, size), nu), part_mesh(gtype, size)
+            vol = math.pi * size[0] ** 2 * 2 * size[1] \
+                if gtype == int(mujoco.mjtGeom.mjGEOM_CYLINDER) else float(np.prod(2 * size[:3]))
+        ref = self._ref(key, lambda: (mesh.vertices, mesh.faces, nu))
         body = _sounding(ref, mat, 1.0, mat.density_kg_m3 * vol, math.inf, MOUNTED_LOSS_FACTOR)
-        return _Body(body, vol, pos, rot, mat)
-
-    def _cached(self, key, make) -> ModalModel:
-        if key not in self._models:
-            self._models[key] = make()
-        return self._models[key]
+        return _Body(body, vol, pos, rot, mat, patch=is_panel(owner))
 
     # -- the fall ---------------------------------------------------------------------------
     def render(self, event: FallEvent, rng: np.random.Generator) -> np.ndarray:
@@ -186,14 +175,14 @@ class FallRenderer:
                 else:
                     other = self._static_body(m, d, c.geom_other, c.material_other, c.other)
                 others[c.geom_other] = other
-                names[c.geom_other] = c.other if c.other in ("floor", "ceiling") or \
-                    c.other.startswith(("wall", "obj:")) else f"{c.other}#{c.geom_other}"
+                names[c.geom_other] = c.other if is_panel(c.other) or \
+                    c.other.startswith("obj:") else f"{c.other}#{c.geom_other}"
             self._add_hits(c, target, other, rng)
         out = {"target": render(target.sounding, target.hits, self.s.length_s,
                                 self.s.sample_rate, volume_m3=target.volume_m3)}
         for g, b in others.items():
             p = render(b.sounding, b.hits, self.s.length_s, self.s.sample_rate,
-                       volume_m3=None if getattr(b, "patch", False) else b.volume_m3)
+                       volume_m3=None if b.patch else b.volume_m3)
             out[names[g]] = out[names[g]] + p if names[g] in out else p
         return out
 
@@ -201,7 +190,7 @@ class FallRenderer:
                   rng: np.random.Generator) -> None:
         a, b = target.sounding, other.sounding
         p_other = other.local(c.point_world)
-        if getattr(other, "patch", False):
+        if other.patch:
             p_other = np.array([PATCH_HIT[0] * PATCH_M, PATCH_HIT[1] * PATCH_M,
                                 PATCH_THICKNESS_M / 2])
         n_other = other.frame_mat.T @ np.asarray(c.normal, float)  # force on the other: -n

@@ -185,8 +185,9 @@ def render(body: SoundingBody, hits: list[ModalHit], length_s: float,
         i0 = int(round(hit.time_s * sample_rate))
         if i0 >= n_out or hit.impulse_ns <= 0:
             continue
-        phi = m.shape_at(hit.point)[:, keep].astype(float)  # (3, n)
-        n = m.normal_at(hit.point) if hit.direction is None else np.asarray(hit.direction, float)
+        node = m.nearest(hit.point)
+        phi = m.shapes[node][:, keep].astype(float)  # (3, n)
+        n = m.normal(node) if hit.direction is None else np.asarray(hit.direction, float)
         idx.append(i0)
         gains.append((n @ phi) * hit.impulse_ns * half_sine_spectrum(w, hit.duration_s))
     if not idx:

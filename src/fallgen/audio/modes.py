@@ -78,14 +78,13 @@ class ModalModel:
                           self.n_voxels, self.volume_error,
                           (Q * a * scale ** 2, D * a * scale ** 3, A * a * a * scale ** 2))
 
-    def shape_at(self, point: np.ndarray) -> np.ndarray:
-        """Mode shapes (3, n) at the surface node nearest to ``point`` (object frame)."""
-        i = int(np.argmin(((self.points - np.asarray(point)) ** 2).sum(axis=1)))
-        return self.shapes[i]
+    def nearest(self, point: np.ndarray) -> int:
+        """Index of the surface node nearest to ``point`` (object frame)."""
+        return int(np.argmin(((self.points - np.asarray(point)) ** 2).sum(axis=1)))
 
-    def normal_at(self, point: np.ndarray) -> np.ndarray:
-        i = int(np.argmin(((self.points - np.asarray(point)) ** 2).sum(axis=1)))
-        a = self.area[i]
+    def normal(self, node: int) -> np.ndarray:
+        """Outward unit normal at a surface node."""
+        a = self.area[node]
         n = float(np.linalg.norm(a))
         return a / n if n > 0 else a
 

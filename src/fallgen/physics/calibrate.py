@@ -80,12 +80,13 @@ def fit_solref(restitution: float, *, timestep: float = 0.002, tol: float = 0.03
         best = None
         for z in zetas:
             ref = (tc, float(z))
-            mid = bounce(ref, ref, FIT_SPEEDS_MPS[1], timestep=timestep).restitution
-            if abs(mid - restitution) > tol:
+            mid = bounce(ref, ref, FIT_SPEEDS_MPS[1], timestep=timestep)
+            if abs(mid.restitution - restitution) > tol:
                 continue
-            es = tuple(bounce(ref, ref, v, timestep=timestep).restitution
-                       for v in FIT_SPEEDS_MPS)
-            pen = bounce(ref, ref, FIT_SPEEDS_MPS[-1], timestep=timestep).penetration_m
+            runs = [mid if v == FIT_SPEEDS_MPS[1] else bounce(ref, ref, v, timestep=timestep)
+                    for v in FIT_SPEEDS_MPS]
+            es = tuple(r.restitution for r in runs)
+            pen = runs[-1].penetration_m
             near = [bounce((tc, float(z) + dz), (tc, float(z) + dz), FIT_SPEEDS_MPS[1],
                            timestep=timestep).restitution for dz in (-0.05, 0.05)]
             if max(es) >= 0.95 or pen > max_penetration_m or abs(near[0] - near[1]) > 0.3:
