@@ -36,6 +36,7 @@ from fallgen.physics.contacts import ContactEvent
 from fallgen.physics.events import FallEvent
 from fallgen.world.library import World
 from fallgen.world.materials import ObjectMaterial
+from fallgen.world.objects import ObjectInstance
 
 PATCH_M = 0.6
 PATCH_THICKNESS_M = 0.02
@@ -110,11 +111,9 @@ class FallRenderer:
             self._models[key] = modal_model(v, f, nu, self.s.modal, self.s.cache_dir)
         return self._models[key]
 
-    def _object_body(self, spec, pos, mat33) -> _Body:
-        inst = self.world.categories.instance(spec.category, spec.variant, spec.material,
-                                              spec.scale)
+    def _object_body(self, inst: ObjectInstance, pos, mat33) -> _Body:
         nu = inst.material.poisson_ratio
-        ref = self._ref(("obj", spec.category, spec.variant, nu),
+        ref = self._ref(("obj", inst.category, inst.variant, nu),
                         lambda: (inst.geometry.vertices, inst.geometry.faces, nu))
         ext = inst.extents_m
         radius = float(np.clip(0.25 * np.min(ext), 0.001, 0.05))
@@ -159,7 +158,8 @@ class FallRenderer:
         scene = build_scene(variant, world.materials, objs, settings=PHYSICS)
         m, d = scene.model, scene.data()
         mujoco.mj_forward(m, d)
-        target = self._object_body(event.target, (0, 0, 0), np.eye(3))
+        placed = {o.name: o.instance for o in objs}  # "target", "d0".., "o0"..
+        target = self._object_body(placed["target"], (0, 0, 0), np.eye(3))
         others: dict[int, _Body] = {}
         names: dict[int, str] = {}
         for c in event.contacts:
@@ -167,11 +167,8 @@ class FallRenderer:
             if other is None:
                 if c.other.startswith("obj:"):
                     b = m.geom_bodyid[c.geom_other]
-                    name = c.other[4:]
-                    spec = next(p.object for k, p in enumerate(event.distractors + event.occluders)
-                                if (f"d{k}" if k < len(event.distractors)
-                                    else f"o{k - len(event.distractors)}") == name)
-                    other = self._object_body(spec, d.xpos[b], d.xmat[b].reshape(3, 3))
+                    other = self._object_body(placed[c.other[4:]], d.xpos[b],
+                                              d.xmat[b].reshape(3, 3))
                 else:
                     other = self._static_body(m, d, c.geom_other, c.material_other, c.other)
                 others[c.geom_other] = other
