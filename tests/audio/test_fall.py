@@ -36,7 +36,9 @@ def test_fall_sound_both_bodies_deterministic(world, renderer, drop_event):
     assert np.array_equal(total, renderer.render(e, np.random.default_rng(1)))
     assert np.allclose(total, np.sum(list(parts.values()), axis=0))
     assert total.shape == (2 * FS,)
-    assert np.abs(total).max() < 200.0  # below 140 dB SPL at 1 m
+    # a brass key dropped 1 m onto a floor, heard at 1 m: a clearly audible click, peak
+    # between 80 and 120 dB SPL (0.2 and 20 Pa): absolute units, not a normalised signal
+    assert 0.2 < np.abs(total).max() < 20.0
     # silent before the first contact
     first = min(c.time_s for c in e.contacts)
     assert np.abs(total[: int(first * FS) - 2]).max() == 0.0

@@ -1,8 +1,8 @@
 """Every modal model a build can need, and precomputing them into the cache.
 
-Jobs: each object variant in each Poisson ratio its materials have; each furniture part (box or
-cylinder, from the compiled room scenes) in its material's; the floor, wall and ceiling panel of
-every surface finish. :class:`~fallgen.audio.fall.FallRenderer` asks for exactly these, so after
+Jobs: each object variant (except thin shells, whose modes are closed-form) in each Poisson
+ratio its materials have; each furniture part (box or cylinder, from the compiled room scenes)
+in its material's; the floor, wall and ceiling panel of every surface finish. :class:`~fallgen.audio.fall.FallRenderer` asks for exactly these, so after
 :func:`precompute` a build solves nothing.
 """
 
@@ -42,6 +42,8 @@ def jobs(world: World) -> list[ModalJob]:
     for cat in lib:
         for v in cat.variants:
             g = lib.geometry(cat.id, v.name)
+            if g.shell is not None:  # closed-form shell modes: nothing to solve or cache
+                continue
             for mname in v.materials:
                 add(f"{cat.id}/{v.name}", g.vertices, g.faces, mats.object(mname).poisson_ratio)
     patch = panel_mesh()

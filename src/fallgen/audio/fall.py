@@ -37,6 +37,8 @@ from fallgen.physics.events import FallEvent
 from fallgen.world.library import World
 from fallgen.world.materials import ObjectMaterial
 from fallgen.world.objects import ObjectInstance
+from fallgen.world.scene import Scene, build_scene
+from fallgen.world.shell import ThinShell
 
 PATCH_M = 0.6
 PATCH_THICKNESS_M = 0.02
@@ -104,17 +106,19 @@ class FallRenderer:
         self._models: dict[tuple, ModalModel] = {}
 
     # -- bodies ---------------------------------------------------------------------------
-    def _ref(self, key: tuple, mesh) -> ModalModel:
-        """The reference modal model of a mesh (``mesh()`` builds it when not yet loaded)."""
+    def _ref(self, key: tuple, mesh, shell: ThinShell | None = None) -> ModalModel:
+        """The reference modal model of a mesh (``mesh()`` builds it when not yet loaded), or
+        of its thin ``shell``."""
         if key not in self._models:
             v, f, nu = mesh()
-            self._models[key] = modal_model(v, f, nu, self.s.modal, self.s.cache_dir)
+            self._models[key] = modal_model(v, f, nu, self.s.modal, self.s.cache_dir, shell)
         return self._models[key]
 
     def _object_body(self, inst: ObjectInstance, pos, mat33) -> _Body:
         nu = inst.material.poisson_ratio
         ref = self._ref(("obj", inst.category, inst.variant, nu),
-                        lambda: (inst.geometry.vertices, inst.geometry.faces, nu))
+                        lambda: (inst.geometry.vertices, inst.geometry.faces, nu),
+                        inst.geometry.shell)
         ext = inst.extents_m
         radius = float(np.clip(0.25 * np.min(ext), 0.001, 0.05))
         vol = inst.geometry.volume_m3 * inst.scale ** 3
@@ -139,23 +143,27 @@ class FallRenderer:
         return _Body(body, vol, pos, rot, mat, patch=is_panel(owner))
 
     # -- the fall ---------------------------------------------------------------------------
-    def render(self, event: FallEvent, rng: np.random.Generator) -> np.ndarray:
+    def render(self, event: FallEvent, rng: np.random.Generator,
+               scene: Scene | None = None) -> np.ndarray:
         """Dry pressure at 1 m (Pa) of the fall, ``settings.length_s`` long from the drop."""
-        parts = self.render_bodies(event, rng)
+        parts = self.render_bodies(event, rng, scene)
         return np.sum(list(parts.values()), axis=0)
 
-    def render_bodies(self, event: FallEvent, rng: np.random.Generator
-                      ) -> dict[str, np.ndarray]:
+    def render_bodies(self, event: FallEvent, rng: np.random.Generator,
+                      scene: Scene | None = None) -> dict[str, np.ndarray]:
         """Each sounding body's share of the fall: ``"target"`` and one entry per other body
-        hit (``"floor"``, ``"<furniture id>#<geom>"``, ``"obj:d0"``...)."""
+        hit (``"floor"``, ``"<furniture id>#<geom>"``, ``"obj:d0"``...).
+
+        ``scene``: the compiled scene whose geom ids the event's contacts name (a replay's);
+        by default the rehearsal's scene is compiled again (~5 ms)."""
         from fallgen.physics.drop import PHYSICS, _instance, _scene_objects
-        from fallgen.world.scene import build_scene
 
         world = self.world
         variant = world.variant(event.room_variant)
         objs = _scene_objects(world, _instance(world, event.target), event.start_pos,
                               event.start_quat, event.distractors, event.occluders)
-        scene = build_scene(variant, world.materials, objs, settings=PHYSICS)
+        if scene is None:
+            scene = build_scene(variant, world.materials, objs, settings=PHYSICS)
         m, d = scene.model, scene.data()
         mujoco.mj_forward(m, d)
         placed = {o.name: o.instance for o in objs}  # "target", "d0".., "o0"..

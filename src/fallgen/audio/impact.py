@@ -86,36 +86,55 @@ def rigid_body_pressure(volume_m3: float, mass_kg: float, hits: list[ModalHit], 
     the sound of a non-resonant body (a cushion, a foam ball) and the click of a hard one."""
     out = np.zeros(n_out)
     k = RHO_AIR * 1.5 * volume_m3 / (4 * math.pi * C_AIR * r) / mass_kg / math.sqrt(3)
-    for hit in hits:
-        tc = max(hit.duration_s, 1.0 / sample_rate)
-        i0 = int(round(hit.time_s * sample_rate))
-        n = max(2, int(math.ceil(tc * sample_rate)) + 1)
-        if i0 >= n_out or hit.impulse_ns <= 0:
-            continue
-        t = np.arange(n) / sample_rate
-        on = t <= tc
-        # dF/dt of F = (pi J / (2 tc)) sin(pi t / tc), band-limited by sampling at the pulse
-        dF = np.where(on, (math.pi * hit.impulse_ns / (2 * tc)) * (math.pi / tc)
-                      * np.cos(math.pi * t / tc), 0.0)
-        if tc * sample_rate < 4:  # shorter than the sample grid: keep the net zero, scale down
-            dF = dF * (tc * sample_rate / 4)
-        m = min(n, n_out - i0)
-        out[i0:i0 + m] += k * dF[:m]
+    hits = [h for h in hits if h.impulse_ns > 0 and int(round(h.time_s * sample_rate)) < n_out]
+    if not hits:
+        return out
+    tc = np.maximum([h.duration_s for h in hits], 1.0 / sample_rate)  # (H,)
+    i0 = np.array([int(round(h.time_s * sample_rate)) for h in hits])
+    J = np.array([h.impulse_ns for h in hits])
+    n = np.maximum(2, np.ceil(tc * sample_rate).astype(int) + 1)  # samples of each pulse
+    hit = np.repeat(np.arange(len(hits)), n)  # every pulse sample, hit by hit
+    j = np.arange(len(hit)) - np.repeat(np.cumsum(n) - n, n)  # sample within its pulse
+    t = j / sample_rate
+    tch = tc[hit]
+    # dF/dt of F = (pi J / (2 tc)) sin(pi t / tc), band-limited by sampling at the pulse
+    dF = np.where(t <= tch, (math.pi * J[hit] / (2 * tch)) * (math.pi / tch)
+                  * np.cos(math.pi * t / tch), 0.0)
+    # shorter than the sample grid: keep the net zero, scale down
+    dF *= np.where(tch * sample_rate < 4, tch * sample_rate / 4, 1.0)
+    at = i0[hit] + j
+    ok = at < n_out
+    np.add.at(out, at[ok], k * dF[ok])
     return out
 
 
 #: Samples per block of the modal synthesis.
 BLOCK = 512
-#: A mode is dropped once it has decayed DECAY_FLOOR_DB below its own peak (and no hit is left).
+#: After the last hit a mode is dropped once its amplitude is DECAY_FLOOR_DB below the peak
+#: amplitude of the body's loudest mode (so far): what is left is inaudible under the rest of the
+#: body's own sound, and a quiet mode need not ring out its whole decay.
 PRUNE = 10 ** (-DECAY_FLOOR_DB / 20)
+
+
+def _powers(z: np.ndarray, n: int) -> np.ndarray:
+    """(M, n) table z_i^k for k < n by repeated doubling (complex ``**`` is ~50x slower)."""
+    out = np.empty((len(z), n), complex)
+    out[:, 0] = 1.0
+    m, zm = 1, z.astype(complex)
+    while m < n:
+        w = min(m, n - m)
+        out[:, m:m + w] = out[:, :w] * zm[:, None]
+        zm = zm * zm
+        m += w
+    return out
 
 
 def modal_sum(z: np.ndarray, c: np.ndarray, idx: np.ndarray, g: np.ndarray, n_out: int,
               block: int = BLOCK) -> np.ndarray:
     """sum_i c_i Im(sum_h g_hi z_i^(n - n_h)) over samples n >= n_h: damped sinusoids started
     by impulses, computed block by block from each mode's complex state (one small matrix
-    product per block for all live modes; after the last hit a mode that has decayed by
-    DECAY_FLOOR_DB below its own peak is dropped).
+    product per block for all live modes; after the last hit a mode whose amplitude is
+    DECAY_FLOOR_DB below the loudest mode's peak is dropped).
 
     ``z``: (M,) per-sample complex factor e^((-d + i w_d) T); ``c``: (M,) output weights;
     ``idx``: (H,) start samples; ``g``: (H, M) real gains."""
@@ -127,35 +146,50 @@ def modal_sum(z: np.ndarray, c: np.ndarray, idx: np.ndarray, g: np.ndarray, n_ou
     idx, g = idx[idx_ok], g[idx_ok][:, live]
     if len(z) == 0 or len(idx) == 0:
         return out
-    k = np.arange(block)
-    Z = z[:, None] ** k[None, :]  # (M, B)
-    zB = z ** block
+    Z = _powers(z, block)  # (M, B): z^0 .. z^(B-1)
+    zB = Z[:, -1] * z
     s = np.zeros(len(z), complex)  # state at the start of the block (already weighted by c)
     peak = np.zeros(len(z))
     h, H = 0, len(idx)
     b0 = int(idx[0]) // block * block
-    while b0 < n_out:
+    while h < H and b0 < n_out:  # blocks with hits in them
         L = min(block, n_out - b0)
         h1 = int(np.searchsorted(idx, b0 + L, side="left"))
-        act = np.nonzero(s)[0]
-        y = (s[act] @ Z[act, :L]).imag if len(act) else np.zeros(L)
+        y = (s @ Z[:, :L]).imag
         carry = 0.0
         if h1 > h:
             o = idx[h:h1] - b0
             gh = g[h:h1]  # (m, M)
             for j in range(h1 - h):
                 y[o[j]:] += (gh[j] @ Z[:, :L - o[j]]).imag
-            carry = (gh * (z[None, :] ** (block - o)[:, None])).sum(0)
+            carry = (gh * (Z[:, block - o - 1].T * z[None, :])).sum(0)  # z^(block - o)
             h = h1
         out[b0:b0 + L] = y
         s = s * zB + carry
-        a = np.abs(s)
-        np.maximum(peak, a, out=peak)
-        if h >= H:  # no more hits: drop modes that have died away
-            s[a < PRUNE * peak] = 0.0
-        if h >= H and not s.any():
-            break
+        np.maximum(peak, np.abs(s), out=peak)
         b0 += block
+    if b0 >= n_out:
+        return out
+    # After the last hit each mode only decays: its block count until it is DECAY_FLOOR_DB
+    # below the loudest mode's peak is known, so modes are sorted by it and each block sums a
+    # prefix of them.
+    a = np.abs(s)
+    thr = PRUNE * max(float(peak.max()), float(a.max()))
+    with np.errstate(divide="ignore"):
+        n_live = np.where(a > thr, np.ceil(np.log(thr / np.maximum(a, 1e-300))
+                                           / np.log(np.abs(zB))), 0).astype(int)
+    order = np.argsort(-n_live, kind="stable")
+    s, Z, zB, n_live = s[order], Z[order], zB[order], n_live[order]
+    k = 0
+    while b0 < n_out:
+        m = int(np.searchsorted(-n_live, -k, side="left"))  # modes with n_live > k
+        if m == 0:
+            break
+        L = min(block, n_out - b0)
+        out[b0:b0 + L] = (s[:m] @ Z[:m, :L]).imag
+        s[:m] *= zB[:m]
+        b0 += block
+        k += 1
     return out
 
 
@@ -180,20 +214,23 @@ def render(body: SoundingBody, hits: list[ModalHit], length_s: float,
     wd = w * np.sqrt(np.maximum(1 - (body.loss_factor / 2) ** 2, 1e-6))
     R = body.radiation()[keep]
     # modal impulses per hit (sparse: a hit is one sample per mode)
-    idx, gains = [], []
-    for hit in hits:
-        i0 = int(round(hit.time_s * sample_rate))
-        if i0 >= n_out or hit.impulse_ns <= 0:
-            continue
-        node = m.nearest(hit.point)
-        phi = m.shapes[node][:, keep].astype(float)  # (3, n)
-        n = m.normal(node) if hit.direction is None else np.asarray(hit.direction, float)
-        idx.append(i0)
-        gains.append((n @ phi) * hit.impulse_ns * half_sine_spectrum(w, hit.duration_s))
-    if not idx:
+    live = [h for h in hits if h.impulse_ns > 0 and int(round(h.time_s * sample_rate)) < n_out]
+    if not live:
         return out
-    idx_a, g = np.asarray(idx), np.asarray(gains)  # (H,), (H, n)
+    idx = np.array([int(round(h.time_s * sample_rate)) for h in live])
+    # hits share few points (a scrape's bumps all land on its contact point): one nearest-node
+    # search per distinct point
+    pts, which = np.unique(np.array([h.point for h in live], float), axis=0, return_inverse=True)
+    nodes = m.nearest(pts)[which.ravel()]
+    n_dir = np.array([m.normal(nd) if h.direction is None else np.asarray(h.direction, float)
+                      for nd, h in zip(nodes, live)])  # (H, 3)
+    phi = m.shapes[nodes][:, :, keep].astype(float) * m.shape_factor  # (H, 3, n)
+    dur = np.array([h.duration_s for h in live])
+    J = np.array([h.impulse_ns for h in live])
+    # the pulse spectrum depends on omega * duration only
+    g = np.einsum("hc,hcn->hn", n_dir, phi) * J[:, None] \
+        * half_sine_spectrum(w[None, :] * dur[:, None], 1.0)
     T = 1.0 / sample_rate
     z = np.exp((-d + 1j * wd) * T)
-    out += modal_sum(z, R / wd, idx_a, g, n_out)
+    out += modal_sum(z, R / wd, idx, g, n_out)
     return out

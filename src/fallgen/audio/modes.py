@@ -18,12 +18,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-
-from fallgen.atomic import write_bytes
 import trimesh
 
+from fallgen.atomic import write_bytes
 from fallgen.audio.fem import lattice, solve_modes
+from fallgen.audio.shells import shell_modes
 from fallgen.audio.voxelize import VoxelSolid, voxel_size, voxelize
+from fallgen.world.shell import ThinShell
 
 E_REF = 1.0e10  # Pa
 RHO_REF = 1000.0  # kg/m^3
@@ -44,7 +45,10 @@ class ModalModel:
     omega: np.ndarray  # (n,) rad/s, ascending
     points: np.ndarray  # (S, 3) surface nodes, object frame, m
     area: np.ndarray  # (S, 3) outward area vector of each surface node, m^2
-    shapes: np.ndarray  # (S, 3, n) mass-normalised mode shapes at the surface nodes, 1/sqrt(kg)
+    #: (S, 3, n) mass-normalised mode shapes at the surface nodes of the reference model; this
+    #: model's shapes are ``shapes * shape_factor`` (see :meth:`phi`), so that rescaling copies
+    #: no per-node array.
+    shapes: np.ndarray
     nu: float
     h: float  # voxel side, m
     n_voxels: int
@@ -53,12 +57,17 @@ class ModalModel:
     #: Q (n,) net volume displacement sum(a . phi), D (n, 3) its first moment about the area
     #: centroid, A (n,) sum(|a| (n . phi)^2).
     moments: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    shape_factor: float = 1.0
+
+    def phi(self, node: int) -> np.ndarray:
+        """(3, n) mass-normalised mode shapes at one surface node, 1/sqrt(kg)."""
+        return self.shapes[node].astype(float) * self.shape_factor
 
     def surface_moments(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if self.moments is not None:
             return self.moments
         a = self.area.astype(float)
-        an = np.einsum("sc,scn->sn", a, self.shapes.astype(float))
+        an = np.einsum("sc,scn->sn", a, self.shapes.astype(float)) * self.shape_factor
         area = np.linalg.norm(a, axis=1)
         centre = (area[:, None] * self.points).sum(0) / area.sum()
         Q = an.sum(axis=0)
@@ -74,13 +83,15 @@ class ModalModel:
         a = np.sqrt(RHO_REF / density_kg_m3) * scale ** -1.5
         Q, D, A = self.surface_moments()
         return ModalModel(self.omega * k, self.points * scale, self.area * scale ** 2,
-                          (self.shapes * a).astype(np.float32), self.nu, self.h * scale,
-                          self.n_voxels, self.volume_error,
-                          (Q * a * scale ** 2, D * a * scale ** 3, A * a * a * scale ** 2))
+                          self.shapes, self.nu, self.h * scale, self.n_voxels, self.volume_error,
+                          (Q * a * scale ** 2, D * a * scale ** 3, A * a * a * scale ** 2),
+                          self.shape_factor * a)
 
-    def nearest(self, point: np.ndarray) -> int:
-        """Index of the surface node nearest to ``point`` (object frame)."""
-        return int(np.argmin(((self.points - np.asarray(point)) ** 2).sum(axis=1)))
+    def nearest(self, points: np.ndarray) -> np.ndarray:
+        """Indices of the surface nodes nearest to each of ``points`` (K, 3)."""
+        p = np.asarray(points, float).reshape(-1, 3)
+        d2 = (p ** 2).sum(1)[:, None] - 2 * p @ self.points.T + (self.points ** 2).sum(1)[None, :]
+        return np.argmin(d2, axis=1)
 
     def normal(self, node: int) -> np.ndarray:
         """Outward unit normal at a surface node."""
@@ -173,6 +184,8 @@ def default_cache_dir() -> Path:
 
 def _save(path: Path, m: ModalModel) -> None:
     buf = io.BytesIO()
+    if m.shape_factor != 1.0:
+        raise ValueError("only reference (unscaled) modal models are cached")
     np.savez(buf, omega=m.omega, points=m.points, area=m.area, shapes=m.shapes,
              meta=np.array([m.nu, m.h, m.n_voxels, m.volume_error]))
     write_bytes(path, buf.getvalue())
@@ -185,10 +198,22 @@ def _load(path: Path) -> ModalModel:
                           int(nvox), float(err))
 
 
+def shell_model(shell: ThinShell, nu: float, settings: ModalSettings = ModalSettings()
+                ) -> ModalModel:
+    """Reference modal model of a thin-walled shape from its shell (closed-form modes,
+    milliseconds: not cached)."""
+    nu = round_nu(nu)
+    omega, points, area, shapes, h = shell_modes(shell, nu, E_REF, RHO_REF, settings.n_modes)
+    return ModalModel(omega, points, area, shapes.astype(np.float32), nu, h, 0, 0.0)
+
+
 def modal_model(vertices: np.ndarray, faces: np.ndarray, nu: float,
                 settings: ModalSettings = ModalSettings(),
-                cache_dir: Path | None = None) -> ModalModel:
-    """The shape's reference modal model, from the cache or solved (and cached)."""
+                cache_dir: Path | None = None, shell: ThinShell | None = None) -> ModalModel:
+    """The shape's reference modal model: from its thin ``shell`` when it has one, else from
+    the cache or solved by voxel FEM (and cached)."""
+    if shell is not None:
+        return shell_model(shell, nu, settings)
     key = cache_key(vertices, faces, nu, settings)
     path = (cache_dir or default_cache_dir()) / f"{key}.npz"
     if path.exists():

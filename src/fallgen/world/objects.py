@@ -31,6 +31,7 @@ import numpy as np
 from fallgen.errors import InputError
 from fallgen.fields import Fields, load_toml
 from fallgen.world.materials import MaterialLibrary, ObjectMaterial
+from fallgen.world.shell import ThinShell
 
 ROLES = ("target", "occluder")
 MESH_SUFFIXES = (".obj", ".stl", ".ply", ".glb", ".gltf", ".off")
@@ -75,6 +76,7 @@ class ObjectGeometry:
     volume_m3: float
     com: np.ndarray  # (3,) centre of volume
     inertia_per_density: np.ndarray  # (3, 3) about com, for density 1 kg/m^3
+    shell: ThinShell | None = None  # thin sheet walls (their modes come from shell theory)
 
     @property
     def extents(self) -> np.ndarray:
@@ -278,7 +280,9 @@ def build_geometry(cat: Category, v: Variant) -> ObjectGeometry:
         except (TypeError, ValueError, KeyError) as e:
             raise InputError(cat.file, f"{where}.params", str(e).strip("'\"")) from None
         mesh, collision = shape.visual, tuple(np.asarray(c, float) for c in shape.collision)
+        shell = shape.shell
     else:
+        shell = None
         assert v.mesh is not None and v.size_m is not None
         try:
             mesh = trimesh.load(v.mesh, force="mesh", process=True)
@@ -309,4 +313,4 @@ def build_geometry(cat: Category, v: Variant) -> ObjectGeometry:
     volume, com, inertia = _mass_properties(vertices, faces)
     if not volume > 0:
         raise InputError(v.mesh or cat.file, where, f"mesh volume is {volume:g} m^3 (inside out?)")
-    return ObjectGeometry(vertices, faces, collision, volume, com, inertia)
+    return ObjectGeometry(vertices, faces, collision, volume, com, inertia, shell)

@@ -13,6 +13,7 @@ import numpy as np
 import trimesh
 
 from fallgen.world import meshkit as mk
+from fallgen.world.shell import ThinShell
 
 #: Default range of a length parameter (name ending in ``_m``), metres.
 LENGTH_RANGE = (1e-5, 3.0)
@@ -30,6 +31,9 @@ class Shape:
 
     visual: trimesh.Trimesh
     collision: tuple[np.ndarray, ...]
+    #: The sheet walls of a thin-walled shape, for its vibration model (None: solid enough
+    #: for voxel finite elements).
+    shell: ThinShell | None = None
 
 
 @dataclass(frozen=True)
@@ -136,8 +140,10 @@ def need(cond: bool, name: str, param: str, message: str) -> None:
         raise ValueError(f"shape {name!r}: parameter {param!r}: {message}")
 
 
-def finish(visual: trimesh.Trimesh, pieces: Iterable[np.ndarray] | None = None) -> Shape:
-    """Centre a visual mesh and its collision pieces on the visual bounding box.
+def finish(visual: trimesh.Trimesh, pieces: Iterable[np.ndarray] | None = None,
+           shell: ThinShell | None = None) -> Shape:
+    """Centre a visual mesh, its collision pieces (and its thin shell) on the visual bounding
+    box.
 
     ``pieces`` default to the visual mesh's convex hull (one piece). Each piece is reduced to
     its hull vertices.
@@ -148,7 +154,7 @@ def finish(visual: trimesh.Trimesh, pieces: Iterable[np.ndarray] | None = None) 
     v = trimesh.Trimesh(np.asarray(visual.vertices, float) - c, np.asarray(visual.faces),
                         process=False)
     col = tuple(mk.hull_points(np.asarray(p, float) - c) for p in pieces)
-    return Shape(v, col)
+    return Shape(v, col, None if shell is None else shell.shifted(-c))
 
 
 @functools.lru_cache(maxsize=160)
@@ -167,4 +173,4 @@ def make_shape(name: str, params: Mapping[str, float | int | bool] | None = None
         raise KeyError(f"unknown shape generator {name!r} (known: {', '.join(sorted(SHAPES))})")
     checked = check_params(name, PARAMS[name], dict(params or {}))
     s = _build(name, tuple(sorted(checked.items())))
-    return Shape(s.visual.copy(), tuple(p.copy() for p in s.collision))
+    return Shape(s.visual.copy(), tuple(p.copy() for p in s.collision), s.shell)

@@ -16,6 +16,7 @@ from shapely.geometry import box as sbox
 
 from fallgen.world import meshkit as mk
 from fallgen.world.shapes._core import Shape, finish, need, shape
+from fallgen.world.shell import THIN_WALL_M, ThinShell
 
 
 def _rot_y(points: np.ndarray, angle: float) -> np.ndarray:
@@ -109,7 +110,8 @@ def toaster(*, length_m: float = 0.28, width_m: float = 0.17, height_m: float = 
     knob.apply_transform(np.array([[0, 0, 1, 0], [0, 1, 0, 0], [-1, 0, 0, 0], [0, 0, 0, 1.0]]))
     knob.apply_translation([L / 2 + 0.004, 0.0, -0.2 * H])
     body = mk.union([body, lever, knob], tolerance=0.3 * wall_m)
-    return finish(body)
+    shell = ThinShell("box", (L, W, H), wall_m) if wall_m <= THIN_WALL_M else None
+    return finish(body, shell=shell)
 
 
 @shape("headphones")

@@ -16,6 +16,7 @@ from shapely.ops import unary_union
 
 from fallgen.world import meshkit as mk
 from fallgen.world.shapes._core import Shape, finish, need, shape
+from fallgen.world.shell import THIN_WALL_M, ThinShell
 
 INF = math.inf
 
@@ -190,7 +191,8 @@ def tin(*, diameter_m: float = 0.075, height_m: float = 0.10, lid_height_m: floa
     im = mk.revolve(inner, 48, max_len=0.012)
     im.invert()
     m = trimesh.util.concatenate([om, im])
-    return finish(m, [om.vertices])
+    shell = ThinShell.cylinder(R, H, w, (0.0, 0.0, H / 2)) if w <= THIN_WALL_M else None
+    return finish(m, [om.vertices], shell)
 
 
 @shape("book")

@@ -19,6 +19,7 @@ from shapely.geometry import box as sbox
 
 from fallgen.world import meshkit as mk
 from fallgen.world.shapes._core import Shape, finish, need, shape
+from fallgen.world.shell import THIN_WALL_M, ThinShell
 
 
 # ---------------------------------------------------------------------------------------------
@@ -264,7 +265,10 @@ def bottle(*, height_m: float = 0.30, diameter_m: float = 0.076, neck_diameter_m
     outer = mk.fillet_polyline(outer, radii)
     lathe = mk.Lathe.hollow(outer, wall_m, rim_radius=0.45 * wall_m,
                             segments=36 if wall_m > 0.001 else 32, min_len=min(5e-4, wall_m / 3))
-    return finish(lathe.mesh())
+    # a thin (PET) bottle's body below the shoulder, held round by the base and the shoulder
+    shell = ThinShell.cylinder(R, zb, wall_m, (0.0, 0.0, zb / 2)) if wall_m <= THIN_WALL_M \
+        else None
+    return finish(lathe.mesh(), shell=shell)
 
 
 @shape("soda_can")
@@ -316,7 +320,11 @@ def soda_can(*, diameter_m: float = 0.0662, height_m: float = 0.1222,
         hole = mk.extrude(drop, 0.006, max_len=0.004)
         hole.apply_translation([0.0, 0.0, H - 0.0062])
         can = mk.difference(can, hole, tolerance=0.3 * side_wall_m)
-    return finish(can)
+    # the straight side wall between the base's and the neck's seams, held round by the ends
+    z0, z1 = 0.012, H - 0.014
+    shell = ThinShell.cylinder(R, z1 - z0, side_wall_m, (0.0, 0.0, (z0 + z1) / 2)) \
+        if side_wall_m <= THIN_WALL_M else None
+    return finish(can, shell=shell)
 
 
 @shape("pepper_mill")

@@ -1,0 +1,77 @@
+"""Thin-shell modal models (fallgen.audio.shells) against shell and plate theory."""
+
+import math
+
+import numpy as np
+import pytest
+
+from fallgen.audio.modes import E_REF, RHO_REF, shell_model
+from fallgen.audio.shells import _flexural
+from fallgen.world.shell import THIN_WALL_M, ThinShell
+
+E, RHO, NU = 2.0e11, 7850.0, 0.3
+
+
+def _D(h):
+    return E * h ** 3 / (12 * (1 - NU ** 2))
+
+
+@pytest.mark.parametrize("n", [2, 3, 4, 6])
+def test_long_cylinder_tends_to_rayleigh_ring(n):
+    """Rayleigh's inextensional ring: omega^2 = D / (rho h R^4) n^2 (n^2 - 1)^2 / (n^2 + 1)."""
+    R, h = 0.05, 0.0005
+    w, _ = _flexural(R, 100 * R, h, NU, E, RHO, 1, n)
+    ring = math.sqrt(_D(h) / (RHO * h * R ** 4) * n ** 2 * (n ** 2 - 1) ** 2 / (n ** 2 + 1))
+    assert w == pytest.approx(ring, rel=0.01)
+
+
+@pytest.mark.parametrize("m,n", [(1, 1000), (2, 1500), (3, 3000)])
+def test_flat_limit_is_the_simply_supported_plate(m, n):
+    """R -> infinity: a strip of plate, omega = sqrt(D / rho h) (k_x^2 + k_y^2)."""
+    R, L, h = 1e3, 0.3, 0.002
+    w, _ = _flexural(R, L, h, NU, E, RHO, m, n)
+    plate = math.sqrt(_D(h) / (RHO * h)) * ((m * math.pi / L) ** 2 + (n / R) ** 2)
+    assert w == pytest.approx(plate, rel=0.01)
+
+
+@pytest.mark.parametrize("shell", [ThinShell.cylinder(0.033, 0.1, 0.00012, (0, 0, 0.01)),
+                                   ThinShell("box", (0.28, 0.17, 0.19), 0.0008)])
+def test_modes_mass_normalised_and_orthogonal(shell):
+    """sum over nodes of rho h |a| phi_i . phi_j ~ delta_ij (the node grid integrates the
+    shell's kinetic energy)."""
+    m = shell_model(shell, NU)
+    w = RHO_REF * shell.thickness * np.linalg.norm(m.area, axis=1)
+    phi = m.shapes.astype(float)
+    G = np.einsum("s,sci,scj->ij", w, phi, phi)
+    assert np.allclose(np.diag(G), 1.0, atol=0.03)
+    assert np.abs(G - np.diag(np.diag(G))).max() < 0.03
+    assert np.all(np.diff(m.omega) >= 0) and m.omega[0] > 0
+
+
+def test_box_panel_frequency_and_rescaling():
+    """A toaster's lowest mode is its largest panel's (1, 1) mode; material and size rescale it
+    like any modal model."""
+    box = ThinShell("box", (0.28, 0.17, 0.19), 0.0008)
+    ref = shell_model(box, NU)
+    s = ref.scaled(E, RHO, 1.0)
+    a, b, h = 0.28, 0.19, 0.0008
+    want = math.sqrt(_D(h) / (RHO * h)) * ((math.pi / a) ** 2 + (math.pi / b) ** 2)
+    assert s.omega[0] == pytest.approx(want, rel=1e-9)
+    assert ref.scaled(E, RHO, 2.0).omega[0] == pytest.approx(want / 2, rel=1e-9)
+    assert ref.omega[0] == pytest.approx(want * math.sqrt(E_REF * RHO / (E * RHO_REF)), rel=1e-9)
+
+
+def test_thin_walled_library_objects_carry_their_shell(world):
+    """Cans, tins, a PET bottle and the toaster get a shell that fits inside their mesh; thick
+    walls (a glass bottle) stay with voxel FEM."""
+    lib = world.categories
+    for cid, var in [("soda_can", "355ml"), ("soda_can", "500ml"), ("box", "tea_tin"),
+                     ("bottle", "pet"), ("toaster", "steel")]:
+        g = lib.geometry(cid, var)
+        assert g.shell is not None and g.shell.thickness <= THIN_WALL_M, (cid, var)
+        lo, hi = g.vertices.min(0), g.vertices.max(0)
+        c, half = np.asarray(g.shell.center), np.asarray(g.shell.size) / 2
+        if g.shell.kind == "cylinder":
+            half = np.array([g.shell.size[0], g.shell.size[0], g.shell.size[2] / 2])
+        assert np.all(c - half >= lo - 1e-6) and np.all(c + half <= hi + 1e-6), (cid, var)
+    assert lib.geometry("bottle", "wine").shell is None
