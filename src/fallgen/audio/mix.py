@@ -1,0 +1,144 @@
+"""What the agent hears: dry impact sounds through the room's binaural response, mixed.
+
+Each :class:`DrySource` (a dry signal, pressure at 1 m, and where it sounds from) is convolved
+with the binaural response from its position to the listener's head: the image sources up to the
+completeness time, each through the HRTF of its direction in the head frame (x forward, y left,
+z up; yaw counter-clockwise from the room's +x, pitch up), then the late reverb. The late field is
+diffuse, so one realisation (level fitted at the loudest source) serves every source of the clip.
+
+Output units: the ears' pressure in pascals divided by ``FULL_SCALE_PA`` (20 Pa, 120 dB SPL
+peak: louder than any fall heard from a metre or more), as 2 x T float32. A clip that would
+still exceed 1 is scaled down and the factor kept in ``gain`` (pressure = audio * FULL_SCALE_PA /
+gain), so nothing ever clips and absolute levels stay recoverable.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy.signal import fftconvolve, oaconvolve
+
+from fallgen.audio.hrtf import Hrtf
+from fallgen.audio.room import (KERNEL, RirSettings, RoomAcoustics, arrivals, completeness_time,
+                                fitted_late_level, late_reverb, render_arrivals)
+
+FULL_SCALE_PA = 20.0
+#: Largest |audio| a clip is allowed before it is scaled down (and ``gain`` < 1 recorded).
+CEILING = 0.99
+
+
+@dataclass(frozen=True)
+class Listener:
+    position: np.ndarray  # (3,) head centre, room frame, m
+    yaw_rad: float = 0.0
+    pitch_rad: float = 0.0
+
+    def axes(self) -> np.ndarray:
+        """(3, 3) columns: the head's forward, left and up unit vectors in the room frame."""
+        cy, sy = math.cos(self.yaw_rad), math.sin(self.yaw_rad)
+        cp, sp = math.cos(self.pitch_rad), math.sin(self.pitch_rad)
+        fwd = np.array([cy * cp, sy * cp, sp])
+        left = np.array([-sy, cy, 0.0])
+        return np.column_stack([fwd, left, np.cross(fwd, left)])
+
+
+@dataclass(frozen=True)
+class DrySource:
+    position: np.ndarray  # (3,) room frame, m
+    signal: np.ndarray  # (T,) pressure at 1 m, Pa
+
+
+@dataclass(frozen=True)
+class BinauralClip:
+    audio: np.ndarray  # (2, T) float32: ear pressure / FULL_SCALE_PA * gain; row 0 = left ear
+    gain: float
+    sample_rate: int
+
+    def pressure_pa(self) -> np.ndarray:
+        return self.audio.astype(float) * FULL_SCALE_PA / self.gain
+
+
+def _hrtf_spectra(hrtf: Hrtf) -> tuple[np.ndarray, int]:
+    """(D, 2, KERNEL // 2 + 1) HRTF spectra and the HRIRs' latency for a source in front
+    (samples), which arrivals are advanced by so that delays count from the head centre."""
+    if hrtf.hrir.shape[-1] > KERNEL // 2:
+        raise ValueError(f"HRIRs longer than {KERNEL // 2} taps are not supported")
+    front = hrtf.nearest(np.array([[1.0, 0.0, 0.0]]))[0]
+    latency = int(round(np.mean([np.argmax(np.abs(hrtf.hrir[front, e])) for e in (0, 1)])))
+    return np.fft.rfft(hrtf.hrir, KERNEL, axis=-1), latency
+
+
+def early_binaural(room: RoomAcoustics, source, listener: Listener, hrtf: Hrtf,
+                   settings: RirSettings, spectra=None) -> tuple[np.ndarray, float, np.ndarray]:
+    """(2, n) image-source part of the binaural response (up to the completeness time), that
+    time, and the fitted late level (B,)."""
+    fs = settings.sample_rate
+    spec, latency = spectra or _hrtf_spectra(hrtf)
+    t_c = completeness_time(room, source, listener.position, settings.max_order)
+    arr = arrivals(room, source, listener.position, settings.max_order, until_s=t_c)
+    head = arr.direction @ listener.axes()  # directions in the head frame
+    idx = hrtf.nearest(head)
+    shifted = type(arr)(np.maximum(arr.delay_s - latency / fs, 0.0), arr.amplitude,
+                        arr.direction)
+    n = int(math.ceil((t_c + 0.01) * fs)) + KERNEL
+    h = render_arrivals(shifted, n, fs, spec[idx])
+    return h, t_c, fitted_late_level(room, arr, t_c, fs)
+
+
+def binaural_rir(room: RoomAcoustics, source, listener: Listener, hrtf: Hrtf,
+                 rng: np.random.Generator, settings: RirSettings = RirSettings()) -> np.ndarray:
+    """(2, n) binaural response (early image sources and late reverb), ``length_s`` long."""
+    fs = settings.sample_rate
+    n = int(round(settings.length_s * fs))
+    h, t_c, level = early_binaural(room, source, listener, hrtf, settings)
+    out = late_reverb(room, level, t_c, n, fs, rng, hrtf.diffuse_field_power(1024))
+    m = min(n, h.shape[1])
+    out[:, :m] += h[:, :m]
+    return out
+
+
+def mix(room: RoomAcoustics, sources: list[DrySource], listener: Listener, hrtf: Hrtf,
+        rng: np.random.Generator, settings: RirSettings = RirSettings()) -> BinauralClip:
+    """The binaural clip (``length_s``) of ``sources`` heard by ``listener``."""
+    fs = settings.sample_rate
+    n = int(round(settings.length_s * fs))
+    out = np.zeros((2, n))
+    if not sources:
+        return BinauralClip(out.astype(np.float32), 1.0, fs)
+    spectra = _hrtf_spectra(hrtf)
+    loudest = max(range(len(sources)), key=lambda i: float(np.abs(sources[i].signal).max()))
+    total = np.zeros(n)
+    late_from = None
+    for i, s in enumerate(sources):
+        sig = np.asarray(s.signal, float)[:n]
+        total[:len(sig)] += sig
+        h, t_c, level = early_binaural(room, s.position, listener, hrtf, settings, spectra)
+        if i == loudest:
+            late_from = (t_c, level)
+        for e in range(2):
+            y = oaconvolve(sig, h[e])[:n]
+            out[e, :len(y)] += y
+    t_c, level = late_from
+    late = late_reverb(room, level, t_c, n, fs, rng, hrtf.diffuse_field_power(1024))
+    for e in range(2):
+        out[e] += fftconvolve(total, late[e])[:n]
+    audio = out / FULL_SCALE_PA
+    peak = float(np.abs(audio).max())
+    gain = 1.0 if peak <= CEILING else CEILING / peak
+    return BinauralClip((audio * gain).astype(np.float32), gain, fs)
+
+
+def write_wav(path: Path, clip: BinauralClip) -> None:
+    """Write a clip as a 2-channel float WAV (left, right), written atomically."""
+    import io
+
+    import soundfile as sf
+
+    from fallgen.atomic import write_bytes
+
+    buf = io.BytesIO()
+    sf.write(buf, clip.audio.T, clip.sample_rate, format="WAV", subtype="FLOAT")
+    write_bytes(Path(path), buf.getvalue())

@@ -1,0 +1,98 @@
+"""Binaural responses and the clip mix (fallgen.audio.mix)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fallgen.audio.hrtf import load_sofa, spherical_head
+from fallgen.audio.mix import (FULL_SCALE_PA, DrySource, Listener, binaural_rir, mix,
+                               write_wav)
+from fallgen.audio.room import RirSettings, RoomAcoustics
+
+FS = 44100
+SOFA = Path(__file__).resolve().parents[3] / "shared" / "data" / "hrtf" / "sadie_ku100_48k.sofa"
+ROOM = RoomAcoustics((6.0, 4.0, 3.0), np.full((6, 7), 0.2), np.zeros(7))
+HEAD = Listener(np.array([3.0, 2.0, 1.2]), yaw_rad=0.0)
+SHORT = RirSettings(length_s=0.6)
+
+
+@pytest.fixture(scope="module", params=["spherical", "ku100"])
+def hrtf(request):
+    if request.param == "spherical":
+        return spherical_head()
+    if not SOFA.exists():
+        pytest.skip(f"{SOFA} not present")
+    return load_sofa(SOFA)
+
+
+def _direct(h, src, head=HEAD):
+    n0 = int(np.linalg.norm(np.subtract(src, head.position)) / 343.0 * FS)
+    return h[:, n0 - 60:n0 + 60]
+
+
+def test_left_source_is_louder_and_earlier_in_the_left_ear(hrtf):
+    src = (3.0, 3.5, 1.2)  # +y = the listener's left at yaw 0
+    w = _direct(binaural_rir(ROOM, src, HEAD, hrtf, np.random.default_rng(0), SHORT), src)
+    assert (w[0] ** 2).sum() > 4 * (w[1] ** 2).sum()  # > 6 dB
+    assert np.argmax(np.abs(w[0])) < np.argmax(np.abs(w[1]))
+
+
+def test_turning_the_head_swaps_the_ears(hrtf):
+    """The same source heard after a 180 degree turn: left and right exchange."""
+    src = (3.0, 3.5, 1.2)
+    turned = Listener(HEAD.position, yaw_rad=np.pi)
+    w = _direct(binaural_rir(ROOM, src, turned, hrtf, np.random.default_rng(0), SHORT), src)
+    assert (w[1] ** 2).sum() > 4 * (w[0] ** 2).sum()
+
+
+def test_source_in_front_is_symmetric(hrtf):
+    src = (5.0, 2.0, 1.2)
+    w = _direct(binaural_rir(ROOM, src, HEAD, hrtf, np.random.default_rng(0), SHORT), src)
+    ild = 10 * np.log10((w[0] ** 2).sum() / (w[1] ** 2).sum())
+    assert abs(ild) < 1.0
+    assert np.argmax(np.abs(w[0])) == np.argmax(np.abs(w[1]))
+
+
+def test_direct_sound_arrives_at_distance_over_c():
+    """Delays count from the head centre: the frontal direct sound peaks at d / c."""
+    src = (5.0, 2.0, 1.2)
+    h = binaural_rir(ROOM, src, HEAD, spherical_head(), np.random.default_rng(0), SHORT)
+    n0 = 2.0 / 343.0 * FS  # the first reflection (floor) arrives 3.1 m / c, 400 samples
+    assert abs(int(np.argmax(np.abs(h[0, :350]))) - n0) <= 2
+    assert np.abs(h[:, :int(n0) - 20]).max() < 0.05 * np.abs(h[0, :350]).max()  # nothing early
+
+
+def test_mix_units_headroom_and_determinism():
+    rng = np.random.default_rng(0)
+    click = np.zeros(FS)
+    click[100] = 1.0  # 1 Pa at 1 m
+    srcs = [DrySource(np.array([5.0, 2.0, 1.2]), click),
+            DrySource(np.array([4.0, 3.0, 0.5]), 0.5 * np.roll(click, 2000))]
+    hr = spherical_head()
+    a = mix(ROOM, srcs, HEAD, hr, np.random.default_rng(3), SHORT)
+    b = mix(ROOM, srcs, HEAD, hr, np.random.default_rng(3), SHORT)
+    assert a.audio.dtype == np.float32 and a.audio.shape == (2, int(0.6 * FS))
+    assert np.array_equal(a.audio, b.audio) and a.gain == 1.0
+    p = a.pressure_pa()
+    # direct sound of the first click, 2 m away: about 1/2 Pa (within the HRTF's gain)
+    assert 0.2 < np.abs(p[:, :2000]).max() < 1.0
+    loud = mix(ROOM, [DrySource(srcs[0].position, 1e4 * click)], HEAD, hr, rng, SHORT)
+    assert loud.gain < 1.0 and np.abs(loud.audio).max() <= 0.99 + 1e-6
+    # the recorded gain restores absolute pressure: 1e4 times the first click's direct sound
+    assert np.abs(loud.pressure_pa()[:, :2000]).max() == pytest.approx(
+        1e4 * np.abs(mix(ROOM, srcs[:1], HEAD, hr, rng, SHORT).pressure_pa()[:, :2000]).max(),
+        rel=1e-3)
+    assert FULL_SCALE_PA == 20.0
+
+
+def test_write_wav_roundtrip(tmp_path):
+    import soundfile as sf
+
+    clip = mix(ROOM, [DrySource(np.array([5.0, 2.0, 1.2]), np.r_[np.zeros(50), 1.0, np.zeros(FS)])],
+               HEAD, spherical_head(), np.random.default_rng(0), SHORT)
+    write_wav(tmp_path / "a.wav", clip)
+    data, fs = sf.read(tmp_path / "a.wav", dtype="float32")
+    assert fs == FS and data.shape == clip.audio.T.shape and np.array_equal(data, clip.audio.T)
