@@ -22,8 +22,8 @@ demo: setup
 	$(FALLGEN) objects list
 	$(FALLGEN) objects show -o demo/objects.png
 	$(FALLGEN) rehearse --config configs/demo.toml
-	$(FALLGEN) sounds demo/rehearsal/kitchen_galley-l1-m1.parquet -o demo/sounds --limit 3
-	@echo "demo: room plans in demo/rooms/, objects in demo/objects.png, fall events in demo/rehearsal/, dry fall sounds (WAV in Pa at 1 m + spectrograms) in demo/sounds/, MJCF in demo/ (python -m mujoco.viewer --mjcf=demo/kitchen_galley-l1-m1.xml)"
+	$(FALLGEN) sounds demo/rehearsal/kitchen_galley-l1-m1.parquet -o demo/sounds --limit 3 --binaural
+	@echo "demo: room plans in demo/rooms/, objects in demo/objects.png, fall events in demo/rehearsal/, fall sounds in demo/sounds/ (dry: WAV in Pa at 1 m; *.binaural.wav: heard at the room centre, pressure / 20 Pa; spectrograms), MJCF in demo/ (python -m mujoco.viewer --mjcf=demo/kitchen_galley-l1-m1.xml)"
 
 test: setup
 	$(PY) -m pytest -q -n 2
@@ -37,6 +37,10 @@ bench: setup
 	bash ../shared/peers/setup.sh pyimpact > build/peers.env || true
 	$(PY) bench/impact_bench.py $$(sed -n 's/^pyimpact=/--pyimpact /p' build/peers.env) \
 		| tee build/bench-impact.json
+	bash ../shared/peers/setup.sh pyroomacoustics > build/peers-room.env || true
+	$(PY) bench/room_bench.py \
+		$$(sed -n 's/^pyroomacoustics=/--pyroomacoustics /p' build/peers-room.env) \
+		| tee build/bench-room.json
 
 assets: setup
 	$(FALLGEN) assets modes --workers $(WORKERS)

@@ -195,6 +195,17 @@ def test_sounds_writes_wav_and_png(capsys, tmp_path, world, monkeypatch):
     assert fs == 44100 and len(data) == 2 * fs and np.isfinite(data).all()
     assert np.abs(data).max() > 0
     assert (tmp_path / "out" / f"{stem}.png").stat().st_size > 1000
+    # --binaural: the same fall heard in the room, two ears (spherical head by default)
+    code, out, err = run(capsys, "sounds", str(f), "-o", str(tmp_path / "b"), "--binaural")
+    assert code in (0, None), err
+    data, fs = sf.read(tmp_path / "b" / f"{stem}.binaural.wav", dtype="float32")
+    assert data.shape == (2 * fs, 2) and np.isfinite(data).all() and np.abs(data).max() > 0
+    assert "binaural peak" in out
+    notsofa = tmp_path / "h.sofa"
+    notsofa.write_bytes(b"not hdf5")
+    code, out, err = run(capsys, "sounds", str(f), "-o", str(tmp_path / "b2"), "--binaural",
+                         "--hrtf", str(notsofa))
+    assert code == 2 and err.strip().count("\n") == 0 and "h.sofa" in err
     bad = tmp_path / "bad.parquet"
     bad.write_bytes(b"nope")
     code, out, err = run(capsys, "sounds", str(bad), "-o", str(tmp_path / "o2"))

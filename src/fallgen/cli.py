@@ -319,10 +319,20 @@ def sounds(
     out: Annotated[Path, typer.Option("-o", "--out", help="Directory for WAV and PNG files.")],
     limit: Annotated[int, typer.Option(min=1, help="How many events (from the first).")] = 3,
     seed: Annotated[int, typer.Option(help="Seed of the scrape/roll texture.")] = 0,
+    binaural: Annotated[bool, typer.Option(
+        help="Also render what a listener in the room hears (2-channel WAV, pressure / 20 Pa, "
+             "and a spectrogram of the left ear).")] = False,
+    listener: Annotated[str, typer.Option(
+        help="Listener X,Y,Z (m, room frame) or 'centre': the room centre at 1.2 m, facing "
+             "the object's resting place.")] = "centre",
+    hrtf: Annotated[Optional[Path], typer.Option(
+        help="Measured HRTF (SOFA SimpleFreeFieldHRIR); default: the spherical-head model.")]
+    = None,
     data_dir: DataDir = None,
 ) -> None:
     """Render the dry (anechoic) sound of fall events: a float32 WAV in pascals at 1 m and a
-    spectrogram PNG per event. (Room acoustics and the binaural render come later.)"""
+    spectrogram PNG per event; with --binaural also the sound in the room at a listener's
+    ears (image sources, late reverb, HRTF)."""
     from fallgen.audio.fall import FallRenderer
     from fallgen.audio.preview import spectrogram_png, write_wav
     from fallgen.physics.rehearse import read_events
@@ -337,17 +347,54 @@ def sounds(
     r = FallRenderer(world)
     import numpy as np
 
+    from fallgen.audio import hrtf as hrtf_mod
+    from fallgen.audio import mix as mix_mod
+    from fallgen.audio.room import RirSettings, RoomAcoustics
+
+    head_pos = _listener(listener)
+    ears = None
+    if binaural:
+        ears = mix_mod.Binaural(hrtf_mod.load_sofa(hrtf, r.s.sample_rate) if hrtf
+                                else hrtf_mod.spherical_head(r.s.sample_rate))
     for i, e in enumerate(evs):
         rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(i,)))
-        p = r.render(e, rng)
+        sources = r.render_sources(e, rng)
+        p = np.sum([s.signal for s in sources], axis=0)
         stem = e.event_id.replace("/", "_")
         write_wav(out / f"{stem}.wav", p, r.s.sample_rate)
         spectrogram_png(out / f"{stem}.png", p, r.s.sample_rate,
                         f"{e.target.category} ({e.target.material}) in {e.zone_kind}")
         peak_db = 20 * np.log10(max(np.abs(p).max(), 1e-12) / 20e-6)
-        console.print(f"{stem}: {e.target.category}, {len(e.contacts)} contacts, "
-                      f"peak {peak_db:.0f} dB SPL at 1 m")
-    console.print(f"wrote {len(evs)} WAV + PNG to {out}")
+        msg = f"{stem}: {e.target.category}, {len(e.contacts)} contacts, " \
+              f"peak {peak_db:.0f} dB SPL at 1 m"
+        if ears is not None:
+            room = RoomAcoustics.from_shoebox(world.variant(e.room_variant).shoebox())
+            pos = np.asarray(head_pos if head_pos is not None else
+                             (*(np.asarray(room.size_m[:2]) / 2), 1.2), float)
+            to = np.asarray(e.settle_pos, float) - pos
+            head = mix_mod.Listener(pos, yaw_rad=float(np.arctan2(to[1], to[0])))
+            clip = ears.mix(room, sources, head, np.random.default_rng(
+                np.random.SeedSequence(seed, spawn_key=(i, 1))),
+                RirSettings(sample_rate=r.s.sample_rate, length_s=r.s.length_s))
+            mix_mod.write_wav(out / f"{stem}.binaural.wav", clip)
+            spectrogram_png(out / f"{stem}.binaural.png", clip.pressure_pa()[0],
+                            r.s.sample_rate, f"left ear at {np.round(pos, 2).tolist()}")
+            msg += f"; binaural peak {20 * np.log10(max(np.abs(clip.pressure_pa()).max(), 1e-12) / 20e-6):.0f} dB SPL"
+        console.print(msg)
+    console.print(f"wrote {len(evs)} sounds to {out}")
+
+
+def _listener(text: str):
+    """'centre' -> None; 'X,Y,Z' -> (3,) floats (one-line error otherwise)."""
+    if text == "centre":
+        return None
+    try:
+        xyz = [float(v) for v in text.split(",")]
+    except ValueError:
+        xyz = []
+    if len(xyz) != 3:
+        raise typer.BadParameter("--listener must be 'centre' or X,Y,Z in metres")
+    return xyz
 
 
 # --- entry point --------------------------------------------------------------------------------

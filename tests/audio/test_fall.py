@@ -75,3 +75,18 @@ def test_soft_object_thuds_hard_object_rings(world, renderer, drop_event):
     assert _rms(plush["target"]) > 0  # not silence
     assert _t60(tile["target"]) > 0.05  # a ceramic tile rings
     assert _t60(plush["target"]) < 0.2 * _t60(tile["target"])  # a plush ball does not
+
+
+def test_sources_split_the_fall_by_place_and_sum_to_it(world, renderer, drop_event):
+    e = drop_event(world, "key", "house", "metal/brass", 1.0)
+    total = renderer.render(e, np.random.default_rng(2))
+    srcs = renderer.render_sources(e, np.random.default_rng(2), cluster_m=0.05)
+    assert len(srcs) >= 1
+    summed = np.sum([s.signal for s in srcs], axis=0)
+    # equal up to modes pruned 80 dB below each render's loudest
+    assert np.abs(summed - total).max() < 1e-3 * np.abs(total).max()
+    pts = np.array([c.point_world for c in e.contacts])
+    for s in srcs:  # every source sits where some contact happened
+        assert np.min(np.linalg.norm(pts - s.position, axis=1)) < 1e-9
+    one = renderer.render_sources(e, np.random.default_rng(2), cluster_m=100.0)
+    assert len(one) == 1

@@ -31,6 +31,7 @@ import trimesh
 
 from fallgen.audio.hertz import hertz_impact
 from fallgen.audio.impact import ModalHit, SoundingBody, render
+from fallgen.audio.mix import DrySource
 from fallgen.audio.modes import ModalModel, ModalSettings, modal_model
 from fallgen.physics.contacts import ContactEvent
 from fallgen.physics.events import FallEvent
@@ -67,6 +68,14 @@ class _Body:
     material: ObjectMaterial
     patch: bool = False  # a floor/wall/ceiling panel standing in for a large surface
     hits: list[ModalHit] = field(default_factory=list)
+    group: list[int] = field(default_factory=list)  # source group of each hit
+
+    def render(self, s: AudioSettings, group: int | None = None) -> np.ndarray:
+        """This body's pressure at 1 m from its hits (those of one source ``group``)."""
+        hits = self.hits if group is None else \
+            [h for h, g in zip(self.hits, self.group) if g == group]
+        return render(self.sounding, hits, s.length_s, s.sample_rate,
+                      volume_m3=None if self.patch else self.volume_m3)
 
     def local(self, p_world) -> np.ndarray:
         return self.frame_mat.T @ (np.asarray(p_world, float) - self.frame_pos)
@@ -156,6 +165,30 @@ class FallRenderer:
 
         ``scene``: the compiled scene whose geom ids the event's contacts name (a replay's);
         by default the rehearsal's scene is compiled again (~5 ms)."""
+        target, others, _ = self._bodies(event, rng, scene)
+        out = {"target": target.render(self.s)}
+        for name, b in others:
+            p = b.render(self.s)
+            out[name] = out[name] + p if name in out else p
+        return out
+
+    def render_sources(self, event: FallEvent, rng: np.random.Generator,
+                       scene: Scene | None = None, cluster_m: float = 0.25
+                       ) -> list[DrySource]:
+        """The fall as sound sources in the room: contacts within ``cluster_m`` of a group's
+        first contact point form one source there (both bodies' sound of those contacts, their
+        ringing included). Their signals sum to :meth:`render` (up to the inaudible pruning of
+        decayed modes). Same generator use as :meth:`render`."""
+        target, others, centres = self._bodies(event, rng, scene, cluster_m)
+        bodies = [target] + [b for _, b in others]
+        return [DrySource(np.asarray(c), np.sum([b.render(self.s, g) for b in bodies
+                                                  if g in b.group], axis=0))
+                for g, c in enumerate(centres)]
+
+    def _bodies(self, event: FallEvent, rng: np.random.Generator, scene: Scene | None,
+                cluster_m: float = 0.0) -> tuple[_Body, list[tuple[str, _Body]], list]:
+        """The target and every other body hit, with their hits (and each hit's source group:
+        contacts within ``cluster_m`` of a group's first point)."""
         from fallgen.physics.drop import PHYSICS, _instance, _scene_objects
 
         world = self.world
@@ -170,6 +203,7 @@ class FallRenderer:
         target = self._object_body(placed["target"], (0, 0, 0), np.eye(3))
         others: dict[int, _Body] = {}
         names: dict[int, str] = {}
+        centres: list[np.ndarray] = []
         for c in event.contacts:
             other = others.get(c.geom_other)
             if other is None:
@@ -182,14 +216,18 @@ class FallRenderer:
                 others[c.geom_other] = other
                 names[c.geom_other] = c.other if is_panel(c.other) or \
                     c.other.startswith("obj:") else f"{c.other}#{c.geom_other}"
+            p = np.asarray(c.point_world, float)
+            dist = [float(np.linalg.norm(p - q)) for q in centres]
+            if dist and min(dist) <= cluster_m:
+                g = int(np.argmin(dist))
+            else:
+                g = len(centres)
+                centres.append(p)
+            n0, n1 = len(target.hits), len(other.hits)
             self._add_hits(c, target, other, rng)
-        out = {"target": render(target.sounding, target.hits, self.s.length_s,
-                                self.s.sample_rate, volume_m3=target.volume_m3)}
-        for g, b in others.items():
-            p = render(b.sounding, b.hits, self.s.length_s, self.s.sample_rate,
-                       volume_m3=None if b.patch else b.volume_m3)
-            out[names[g]] = out[names[g]] + p if names[g] in out else p
-        return out
+            target.group += [g] * (len(target.hits) - n0)
+            other.group += [g] * (len(other.hits) - n1)
+        return target, [(names[g], b) for g, b in others.items()], centres
 
     def _add_hits(self, c: ContactEvent, target: _Body, other: _Body,
                   rng: np.random.Generator) -> None:

@@ -61,74 +61,94 @@ class BinauralClip:
         return self.audio.astype(float) * FULL_SCALE_PA / self.gain
 
 
-def _hrtf_spectra(hrtf: Hrtf) -> tuple[np.ndarray, int]:
-    """(D, 2, KERNEL // 2 + 1) HRTF spectra and the HRIRs' latency for a source in front
-    (samples), which arrivals are advanced by so that delays count from the head centre."""
-    if hrtf.hrir.shape[-1] > KERNEL // 2:
-        raise ValueError(f"HRIRs longer than {KERNEL // 2} taps are not supported")
-    front = hrtf.nearest(np.array([[1.0, 0.0, 0.0]]))[0]
-    latency = int(round(np.mean([np.argmax(np.abs(hrtf.hrir[front, e])) for e in (0, 1)])))
-    return np.fft.rfft(hrtf.hrir, KERNEL, axis=-1), latency
+class Binaural:
+    """Binaural rendering with one HRTF: its spectra on the arrival-kernel grid, its latency for
+    a source in front (arrivals are advanced by it, so delays count from the head centre) and
+    its diffuse-field power are computed once here."""
 
+    def __init__(self, hrtf: Hrtf, late_frame: int = 1024) -> None:
+        if hrtf.hrir.shape[-1] > KERNEL // 2:
+            raise ValueError(f"HRIRs longer than {KERNEL // 2} taps are not supported")
+        self.hrtf = hrtf
+        self.spectra = np.fft.rfft(hrtf.hrir, KERNEL, axis=-1)  # (D, 2, KERNEL // 2 + 1)
+        front = hrtf.nearest(np.array([[1.0, 0.0, 0.0]]))[0]
+        self.latency = int(round(np.mean([np.argmax(np.abs(hrtf.hrir[front, e]))
+                                          for e in (0, 1)])))
+        self.late_frame = late_frame
+        self.diffuse_power = hrtf.diffuse_field_power(late_frame)
 
-def early_binaural(room: RoomAcoustics, source, listener: Listener, hrtf: Hrtf,
-                   settings: RirSettings, spectra=None) -> tuple[np.ndarray, float, np.ndarray]:
-    """(2, n) image-source part of the binaural response (up to the completeness time), that
-    time, and the fitted late level (B,)."""
-    fs = settings.sample_rate
-    spec, latency = spectra or _hrtf_spectra(hrtf)
-    t_c = completeness_time(room, source, listener.position, settings.max_order)
-    arr = arrivals(room, source, listener.position, settings.max_order, until_s=t_c)
-    head = arr.direction @ listener.axes()  # directions in the head frame
-    idx = hrtf.nearest(head)
-    shifted = type(arr)(np.maximum(arr.delay_s - latency / fs, 0.0), arr.amplitude,
-                        arr.direction)
-    n = int(math.ceil((t_c + 0.01) * fs)) + KERNEL
-    h = render_arrivals(shifted, n, fs, spec[idx])
-    return h, t_c, fitted_late_level(room, arr, t_c, fs)
+    def early(self, room: RoomAcoustics, source, listener: Listener, settings: RirSettings
+              ) -> tuple[np.ndarray, float, np.ndarray]:
+        """(2, n) image-source part of the response (up to the completeness time, n covering
+        it), that time, and the fitted late level (B,)."""
+        fs = settings.sample_rate
+        # a contact on the floor or a wall lies on the boundary: move it 1 cm inside
+        source = np.clip(np.asarray(source, float), 0.01, np.asarray(room.size_m) - 0.01)
+        t_c = completeness_time(room, source, listener.position, settings.max_order)
+        arr = arrivals(room, source, listener.position, settings.max_order, until_s=t_c)
+        idx = self.hrtf.nearest(arr.direction @ listener.axes())  # head-frame directions
+        shifted = type(arr)(np.maximum(arr.delay_s - self.latency / fs, 0.0), arr.amplitude,
+                            arr.direction)
+        n = int(math.ceil((t_c + 0.01) * fs)) + KERNEL
+        h = render_arrivals(shifted, n, fs, self.spectra[idx])
+        return h, t_c, fitted_late_level(room, arr, t_c, fs)
+
+    def late(self, room: RoomAcoustics, level: np.ndarray, t_c: float, n: int, fs: int,
+             rng: np.random.Generator) -> np.ndarray:
+        return late_reverb(room, level, t_c, n, fs, rng, self.diffuse_power,
+                           frame=self.late_frame)
+
+    def rir(self, room: RoomAcoustics, source, listener: Listener, rng: np.random.Generator,
+            settings: RirSettings = RirSettings()) -> np.ndarray:
+        """(2, n) binaural response (early image sources and late reverb), ``length_s``."""
+        fs = settings.sample_rate
+        n = int(round(settings.length_s * fs))
+        h, t_c, level = self.early(room, source, listener, settings)
+        out = self.late(room, level, t_c, n, fs, rng)
+        m = min(n, h.shape[1])
+        out[:, :m] += h[:, :m]
+        return out
+
+    def mix(self, room: RoomAcoustics, sources: list[DrySource], listener: Listener,
+            rng: np.random.Generator, settings: RirSettings = RirSettings()) -> BinauralClip:
+        """The binaural clip (``length_s``) of ``sources`` heard by ``listener``."""
+        fs = settings.sample_rate
+        n = int(round(settings.length_s * fs))
+        out = np.zeros((2, n))
+        if not sources:
+            return BinauralClip(out.astype(np.float32), 1.0, fs)
+        loudest = max(range(len(sources)), key=lambda i: float(np.abs(sources[i].signal).max()))
+        total = np.zeros(n)
+        late_from = (0.0, np.zeros(len(room.bands_hz)))
+        for i, s in enumerate(sources):
+            sig = np.asarray(s.signal, float)[:n]
+            total[:len(sig)] += sig
+            h, t_c, level = self.early(room, s.position, listener, settings)
+            if i == loudest:
+                late_from = (t_c, level)
+            for e in range(2):
+                y = oaconvolve(sig, h[e])[:n]
+                out[e, :len(y)] += y
+        late = self.late(room, late_from[1], late_from[0], n, fs, rng)
+        for e in range(2):
+            out[e] += fftconvolve(total, late[e])[:n]
+        audio = out / FULL_SCALE_PA
+        peak = float(np.abs(audio).max())
+        gain = 1.0 if peak <= CEILING else CEILING / peak
+        return BinauralClip((audio * gain).astype(np.float32), gain, fs)
 
 
 def binaural_rir(room: RoomAcoustics, source, listener: Listener, hrtf: Hrtf,
                  rng: np.random.Generator, settings: RirSettings = RirSettings()) -> np.ndarray:
-    """(2, n) binaural response (early image sources and late reverb), ``length_s`` long."""
-    fs = settings.sample_rate
-    n = int(round(settings.length_s * fs))
-    h, t_c, level = early_binaural(room, source, listener, hrtf, settings)
-    out = late_reverb(room, level, t_c, n, fs, rng, hrtf.diffuse_field_power(1024))
-    m = min(n, h.shape[1])
-    out[:, :m] += h[:, :m]
-    return out
+    """One binaural response (see :meth:`Binaural.rir`; keep a :class:`Binaural` to render
+    many)."""
+    return Binaural(hrtf).rir(room, source, listener, rng, settings)
 
 
 def mix(room: RoomAcoustics, sources: list[DrySource], listener: Listener, hrtf: Hrtf,
         rng: np.random.Generator, settings: RirSettings = RirSettings()) -> BinauralClip:
-    """The binaural clip (``length_s``) of ``sources`` heard by ``listener``."""
-    fs = settings.sample_rate
-    n = int(round(settings.length_s * fs))
-    out = np.zeros((2, n))
-    if not sources:
-        return BinauralClip(out.astype(np.float32), 1.0, fs)
-    spectra = _hrtf_spectra(hrtf)
-    loudest = max(range(len(sources)), key=lambda i: float(np.abs(sources[i].signal).max()))
-    total = np.zeros(n)
-    late_from = None
-    for i, s in enumerate(sources):
-        sig = np.asarray(s.signal, float)[:n]
-        total[:len(sig)] += sig
-        h, t_c, level = early_binaural(room, s.position, listener, hrtf, settings, spectra)
-        if i == loudest:
-            late_from = (t_c, level)
-        for e in range(2):
-            y = oaconvolve(sig, h[e])[:n]
-            out[e, :len(y)] += y
-    t_c, level = late_from
-    late = late_reverb(room, level, t_c, n, fs, rng, hrtf.diffuse_field_power(1024))
-    for e in range(2):
-        out[e] += fftconvolve(total, late[e])[:n]
-    audio = out / FULL_SCALE_PA
-    peak = float(np.abs(audio).max())
-    gain = 1.0 if peak <= CEILING else CEILING / peak
-    return BinauralClip((audio * gain).astype(np.float32), gain, fs)
+    """One clip (see :meth:`Binaural.mix`; keep a :class:`Binaural` to render many)."""
+    return Binaural(hrtf).mix(room, sources, listener, rng, settings)
 
 
 def write_wav(path: Path, clip: BinauralClip) -> None:
