@@ -1,0 +1,138 @@
+"""The agent's discrete action space, an action simulator, and the paper's success metrics.
+
+Actions (their integer codes are what datasets store): ``move_forward`` 0.25 m along the
+heading, ``turn_left`` / ``turn_right`` 30 degrees, ``look_up`` / ``look_down`` one camera tilt
+step (``AgentSpec.tilt_step_deg``, 15 degrees, within [``tilt_min_deg``, ``tilt_max_deg``]),
+``found``. Headings are kept as whole 30-degree steps, so rotations are exact. A forward move is
+checked along its segment (every 5 cm) against the occupancy grid with the robot's radius: if any
+point would touch an obstacle the agent does not move at all (collisions stop motion; the action
+still counts). Tilting beyond a limit leaves the tilt unchanged.
+
+Judging (Gan et al. 2022): an episode succeeds when the agent executes ``found`` within
+``MAX_ACTIONS`` actions, at most ``SUCCESS_DISTANCE_M`` (horizontal) from the object, with the
+object visible in its egocentric view (``visible(pose)``: at least ``VISIBLE_PIXELS``
+segmentation pixels of the object, decided by the caller's renderer). SPL = S l / max(p, l) with
+p the distance travelled and l the shortest path in the same action space; SNA = S n* / max(n,
+n*) with n the number of actions (``found`` included) and n* the fewest possible.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from fallgen.nav.occupancy import OccupancyGrid
+
+ACTIONS = ("move_forward", "turn_left", "turn_right", "look_up", "look_down", "found")
+FORWARD, LEFT, RIGHT, UP, DOWN, FOUND = range(6)
+STEP_M = 0.25
+TURN_DEG = 30
+HEADINGS = 360 // TURN_DEG
+MAX_ACTIONS = 200
+SUCCESS_DISTANCE_M = 2.0
+#: Segmentation pixels of the object (of 300 x 300) for it to count as seen.
+VISIBLE_PIXELS = 20
+
+
+@dataclass(frozen=True)
+class AgentSpec:
+    radius_m: float = 0.2
+    height_m: float = 1.2
+    camera_height_m: float = 1.1
+    tilt_step_deg: int = 15
+    tilt_min_deg: int = -60
+    tilt_max_deg: int = 30
+
+
+@dataclass(frozen=True)
+class Pose:
+    """Position on the floor (room frame), heading in 30-degree steps (counter-clockwise from
+    +x) and camera tilt in degrees (up positive)."""
+
+    x: float
+    y: float
+    heading: int  # 0 .. HEADINGS - 1
+    tilt_deg: int = 0
+
+    @property
+    def yaw_rad(self) -> float:
+        return self.heading * math.radians(TURN_DEG)
+
+    @property
+    def xy(self) -> np.ndarray:
+        return np.array([self.x, self.y])
+
+
+def heading_vector(heading: int) -> np.ndarray:
+    a = (heading % HEADINGS) * math.radians(TURN_DEG)
+    return np.array([math.cos(a), math.sin(a)])
+
+
+def segment_free(grid: OccupancyGrid, a: np.ndarray, b: np.ndarray, radius_m: float) -> bool:
+    n = max(2, int(math.ceil(np.linalg.norm(b - a) / 0.05)) + 1)
+    pts = a[None, :] + np.linspace(0, 1, n)[:, None] * (b - a)[None, :]
+    return bool(grid.free_for(pts, radius_m).all())
+
+
+def step(pose: Pose, action: int, grid: OccupancyGrid, spec: AgentSpec = AgentSpec()
+         ) -> tuple[Pose, bool]:
+    """The pose after ``action`` and whether it moved/turned/tilted as asked (False: blocked by
+    an obstacle or a tilt limit; ``found`` changes nothing and returns True)."""
+    if action == FORWARD:
+        b = pose.xy + STEP_M * heading_vector(pose.heading)
+        if segment_free(grid, pose.xy, b, spec.radius_m):
+            return replace(pose, x=float(b[0]), y=float(b[1])), True
+        return pose, False
+    if action in (LEFT, RIGHT):
+        return replace(pose, heading=(pose.heading + (1 if action == LEFT else -1)) % HEADINGS), True
+    if action in (UP, DOWN):
+        t = pose.tilt_deg + (spec.tilt_step_deg if action == UP else -spec.tilt_step_deg)
+        if spec.tilt_min_deg <= t <= spec.tilt_max_deg:
+            return replace(pose, tilt_deg=t), True
+        return pose, False
+    if action == FOUND:
+        return pose, True
+    raise ValueError(f"unknown action {action}")
+
+
+@dataclass(frozen=True)
+class Outcome:
+    success: bool
+    found_called: bool
+    distance_m: float  # horizontal, final pose to the object
+    visible: bool
+    n_actions: int
+    path_m: float
+    poses: tuple[Pose, ...]  # after each action, the start first
+
+    def spl(self, shortest_m: float) -> float:
+        if not self.success:
+            return 0.0
+        return shortest_m / max(self.path_m, shortest_m) if max(self.path_m, shortest_m) > 0 \
+            else 1.0
+
+    def sna(self, fewest_actions: int) -> float:
+        return fewest_actions / max(self.n_actions, fewest_actions) if self.success else 0.0
+
+
+def run(start: Pose, actions: Sequence[int], grid: OccupancyGrid, target_xy,
+        visible: Callable[[Pose], bool], spec: AgentSpec = AgentSpec()) -> Outcome:
+    """Execute ``actions`` (stopping at the first ``found`` or after MAX_ACTIONS) and judge."""
+    pose, poses, path = start, [start], 0.0
+    found = False
+    n = 0
+    for a in actions[:MAX_ACTIONS]:
+        n += 1
+        nxt, _ = step(pose, int(a), grid, spec)
+        path += float(np.linalg.norm(nxt.xy - pose.xy))
+        pose = nxt
+        poses.append(pose)
+        if a == FOUND:
+            found = True
+            break
+    dist = float(np.linalg.norm(pose.xy - np.asarray(target_xy, float)[:2]))
+    seen = bool(found and dist <= SUCCESS_DISTANCE_M and visible(pose))
+    return Outcome(seen, found, dist, seen, n, path, tuple(poses))

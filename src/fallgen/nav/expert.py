@@ -1,0 +1,167 @@
+"""The expert: shortest action sequences in the agent's own motion lattice.
+
+From the start pose, ``move_forward`` (0.25 m along one of 12 headings) and the two turns span
+a lattice of poses; positions are merged into 5 cm bins per heading (the first, cheapest pose to
+reach a bin represents it). A bucket-queue Dijkstra (vectorised per cost level) over this lattice
+finds, for a cost per forward move and per turn, the cheapest pose from which the object can be
+seen; the tilt steps that centre it vertically and ``found`` complete the sequence.
+
+A goal pose: horizontal distance to the object at most ``SUCCESS_DISTANCE_M`` - 0.1 m, the
+object within the horizontal field of view less a 10 degree margin, and a clear line of sight
+from the camera (``line_of_sight(pose)``); candidates are confirmed in cost order by
+``visible(pose)`` (the renderer's segmentation count), so the expert never ends where it cannot
+actually see the object.
+
+Two searches: forward moves first, turns second (cost 1000 per move, 1 per turn: the expert's
+own path, the shortest l of SPL, so the expert's SPL is 1), and fewest actions (1 and 1: n* of
+SNA).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from fallgen.nav.agent import (DOWN, FORWARD, FOUND, HEADINGS, LEFT, RIGHT, STEP_M,
+                               SUCCESS_DISTANCE_M, TURN_DEG, UP, AgentSpec, Pose)
+from fallgen.nav.occupancy import OccupancyGrid
+
+BIN_M = 0.05
+FOV_DEG = 90.0
+MARGIN_DEG = 10.0
+#: Poses confirmed with the renderer before giving up.
+MAX_RENDER_CHECKS = 40
+
+
+@dataclass(frozen=True)
+class Plan:
+    actions: tuple[int, ...]
+    goal: Pose
+    path_m: float
+    renders: int  # visibility checks made
+
+
+class NoPath(RuntimeError):
+    """No pose from which the object is visible can be reached."""
+
+
+def tilt_steps(pose: Pose, target, spec: AgentSpec) -> int | None:
+    """Signed tilt steps that bring the object's centre nearest the view centre (None if the
+    tilt limits cannot bring it within the vertical field of view less the margin)."""
+    d = float(np.hypot(target[0] - pose.x, target[1] - pose.y))
+    elev = math.degrees(math.atan2(target[2] - spec.camera_height_m, max(d, 1e-6)))
+    best = None
+    for t in range(spec.tilt_min_deg, spec.tilt_max_deg + 1, spec.tilt_step_deg):
+        if abs(elev - t) <= FOV_DEG / 2 - MARGIN_DEG and (
+                best is None or abs(elev - t) < abs(elev - best)):
+            best = t
+    return None if best is None else (best - pose.tilt_deg) // spec.tilt_step_deg
+
+
+def _search(start: Pose, grid: OccupancyGrid, target, spec: AgentSpec, move_cost: int,
+            turn_cost: int, line_of_sight: Callable[[Pose], bool],
+            visible: Callable[[Pose], bool]) -> tuple[Plan, int]:
+    nbx = int(math.ceil(grid.shape[0] * grid.resolution / BIN_M)) + 1
+    nby = int(math.ceil(grid.shape[1] * grid.resolution / BIN_M)) + 1
+    size = nbx * nby * HEADINGS
+    best = np.full(size, np.iinfo(np.int64).max, np.int64)
+    px, py = np.zeros(size), np.zeros(size)
+    parent = np.full(size, -1, np.int64)
+    act = np.full(size, -1, np.int8)
+    dirs = np.array([[math.cos(math.radians(TURN_DEG * k)), math.sin(math.radians(TURN_DEG * k))]
+                     for k in range(HEADINGS)])
+    target = np.asarray(target, float)
+    renders = 0
+
+    def key(x, y, k):
+        return ((np.floor(x / BIN_M).astype(np.int64) * nby
+                 + np.floor(y / BIN_M).astype(np.int64)) * HEADINGS + k)
+
+    s0 = int(key(np.array([start.x]), np.array([start.y]), np.array([start.heading]))[0])
+    best[s0], px[s0], py[s0] = 0, start.x, start.y
+    buckets: dict[int, list[np.ndarray]] = {0: [np.array([s0])]}
+    found: list[tuple[int, int, int]] = []  # (total cost, state, tilt steps)
+    tilt_cost = min(move_cost, turn_cost)
+    while buckets:
+        c = min(buckets)
+        if found and c > min(f[0] for f in found):
+            break
+        states = np.unique(np.concatenate(buckets.pop(c)))
+        states = states[best[states] == c]
+        if len(states) == 0:
+            continue
+        k = states % HEADINGS
+        # goal candidates among the settled states
+        dx, dy = target[0] - px[states], target[1] - py[states]
+        dist = np.hypot(dx, dy)
+        bearing = (np.degrees(np.arctan2(dy, dx)) - TURN_DEG * k + 180) % 360 - 180
+        cand = np.nonzero((dist <= SUCCESS_DISTANCE_M - 0.1)
+                          & (np.abs(bearing) <= FOV_DEG / 2 - MARGIN_DEG))[0]
+        for i in cand:
+            s = int(states[i])
+            pose = Pose(float(px[s]), float(py[s]), int(k[i]), start.tilt_deg)
+            t = tilt_steps(pose, target, spec)
+            if t is None or not line_of_sight(pose):
+                continue
+            found.append((c + abs(t) * tilt_cost + 1, s, t))
+        # expand: forward (collision-checked along the segment) and the two turns
+        x0, y0 = px[states], py[states]
+        x1, y1 = x0 + STEP_M * dirs[k, 0], y0 + STEP_M * dirs[k, 1]
+        f = np.linspace(0, 1, 7)
+        pts = np.stack([x0[:, None] + f * (x1 - x0)[:, None],
+                        y0[:, None] + f * (y1 - y0)[:, None]], -1).reshape(-1, 2)
+        ok = grid.free_for(pts, spec.radius_m).reshape(len(states), -1).all(1)
+        succ = [(states[ok], x1[ok], y1[ok], k[ok], FORWARD, move_cost),
+                (states, x0, y0, (k + 1) % HEADINGS, LEFT, turn_cost),
+                (states, x0, y0, (k - 1) % HEADINGS, RIGHT, turn_cost)]
+        for src, x, y, kk, a, cost in succ:
+            if len(src) == 0:
+                continue
+            s = key(x, y, kk)
+            inside = (s >= 0) & (s < size)
+            src, x, y, s = src[inside], x[inside], y[inside], s[inside]
+            s, first = np.unique(s, return_index=True)
+            src, x, y = src[first], x[first], y[first]
+            better = best[s] > c + cost
+            s, src, x, y = s[better], src[better], x[better], y[better]
+            if len(s) == 0:
+                continue
+            best[s], px[s], py[s], parent[s], act[s] = c + cost, x, y, src, a
+            buckets.setdefault(c + cost, []).append(s)
+    for total, s, t in sorted(found):
+        if renders >= MAX_RENDER_CHECKS:
+            break
+        goal = Pose(float(px[s]), float(py[s]), int(s % HEADINGS), start.tilt_deg + t * spec.tilt_step_deg)
+        renders += 1
+        if not visible(goal):
+            continue
+        moves: list[int] = []
+        path = 0.0
+        while s != s0:
+            moves.append(int(act[s]))
+            if act[s] == FORWARD:
+                path += STEP_M
+            s = int(parent[s])
+        actions = moves[::-1] + [UP if t > 0 else DOWN] * abs(t) + [FOUND]
+        return Plan(tuple(actions), goal, path, renders), total
+    raise NoPath(f"no reachable pose sees the object ({len(found)} candidates, "
+                 f"{renders} rendered)")
+
+
+@dataclass(frozen=True)
+class Expert:
+    plan: Plan  # the expert's actions (fewest forward moves, then fewest turns)
+    shortest_m: float  # l of SPL
+    fewest_actions: int  # n* of SNA
+
+
+def expert(start: Pose, grid: OccupancyGrid, target, line_of_sight: Callable[[Pose], bool],
+           visible: Callable[[Pose], bool], spec: AgentSpec = AgentSpec()) -> Expert:
+    """Plan the expert's action sequence from ``start`` to a pose that sees ``target`` (the
+    object's centre, room frame), and the optimum references of SPL and SNA."""
+    plan, _ = _search(start, grid, target, spec, 1000, 1, line_of_sight, visible)
+    fewest, _ = _search(start, grid, target, spec, 1, 1, line_of_sight, visible)
+    return Expert(plan, plan.path_m, min(len(fewest.actions), len(plan.actions)))

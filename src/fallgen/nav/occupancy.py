@@ -1,0 +1,106 @@
+"""Ground-truth occupancy of a compiled scene: a 2-D grid, free or occupied in the robot's height
+band, and the clearance map that motion and planning check the robot's footprint against.
+
+A cell (``resolution`` square, 0.1 m by default, cell (i, j) covers x in [i r, (i + 1) r),
+y in [j r, (j + 1) r) of the room frame) is occupied when the footprint of any geom whose vertical
+extent overlaps the band [``band_low_m``, ``band_high_m``] covers any of 3 x 3 sample points of the
+cell. Footprints are the convex hull of each geom's oriented bounding box (exact for the boxes
+furniture is made of, conservative for cylinders and object meshes). The floor and ceiling are
+not obstacles; cells outside the room are.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+from scipy.ndimage import distance_transform_edt
+from scipy.spatial import ConvexHull
+
+from fallgen.world.scene import Scene
+
+
+@dataclass(frozen=True)
+class OccupancyGrid:
+    occupied: np.ndarray  # (nx, ny) bool
+    resolution: float  # m per cell
+    clearance: np.ndarray  # (nx, ny) m from each cell centre to the nearest occupied cell's edge
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.occupied.shape
+
+    def cell(self, xy) -> tuple[int, int]:
+        """Cell index of a point (clipped into the grid)."""
+        p = np.asarray(xy, float)[..., :2] / self.resolution
+        i = np.clip(np.floor(p).astype(int), 0, np.array(self.shape) - 1)
+        return int(i[..., 0]), int(i[..., 1])
+
+    def clearance_at(self, xy: np.ndarray) -> np.ndarray:
+        """(N,) clearance at points (N, 2); points outside the grid have 0."""
+        p = np.atleast_2d(np.asarray(xy, float))[:, :2] / self.resolution
+        i = np.floor(p).astype(int)
+        inside = (i >= 0).all(1) & (i < np.array(self.shape)).all(1)
+        out = np.zeros(len(p))
+        out[inside] = self.clearance[i[inside, 0], i[inside, 1]]
+        return out
+
+    def free_for(self, xy: np.ndarray, radius_m: float) -> np.ndarray:
+        """(N,) whether a disk of ``radius_m`` at each point touches nothing occupied."""
+        return self.clearance_at(xy) >= radius_m
+
+
+def _footprints(scene: Scene, data: mujoco.MjData, low: float, high: float,
+                skip: tuple[str, ...]) -> list[np.ndarray]:
+    m = scene.model
+    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], float)
+    out = []
+    for g in range(m.ngeom):
+        owner = scene.geom_owner[g]
+        if owner in ("floor", "ceiling") or owner.startswith(skip):
+            continue
+        if m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0:
+            continue  # visual-only geoms: their collision twins count
+        c, h = m.geom_aabb[g, :3], m.geom_aabb[g, 3:]
+        corners = data.geom_xpos[g] + (c + signs * h) @ data.geom_xmat[g].reshape(3, 3).T
+        if corners[:, 2].max() < low or corners[:, 2].min() > high:
+            continue
+        xy = corners[:, :2]
+        try:
+            hull = ConvexHull(xy)
+            out.append(hull.equations)  # rows (a, b, c): a x + b y + c <= 0 inside
+        except Exception:  # degenerate (a zero-width geom): its segment's bounding box
+            lo, hi = xy.min(0), xy.max(0)
+            out.append(np.array([[-1, 0, lo[0]], [1, 0, -hi[0]], [0, -1, lo[1]], [0, 1, -hi[1]]],
+                                float))
+    return out
+
+
+def occupancy(scene: Scene, data: mujoco.MjData | None = None, resolution: float = 0.1,
+              band_low_m: float = 0.03, band_high_m: float = 1.2,
+              skip: tuple[str, ...] = ("agent",)) -> OccupancyGrid:
+    """The occupancy grid of ``scene`` (geoms at their positions in ``data``; default: the
+    compiled positions). Geoms whose owner starts with one of ``skip`` are ignored (the agent
+    itself; pass ``("agent", "obj:")`` to ignore loose objects too)."""
+    if data is None:
+        data = mujoco.MjData(scene.model)
+        mujoco.mj_forward(scene.model, data)
+    lx, ly = scene.variant.size_m[:2]
+    nx, ny = int(np.ceil(lx / resolution - 1e-9)), int(np.ceil(ly / resolution - 1e-9))
+    sub = (np.arange(3) + 0.5) / 3
+    ii, jj, si, sj = np.meshgrid(np.arange(nx), np.arange(ny), sub, sub, indexing="ij")
+    px = ((ii + si) * resolution).ravel()
+    py = ((jj + sj) * resolution).ravel()
+    hit = np.zeros(px.shape, bool)
+    for eq in _footprints(scene, data, band_low_m, band_high_m, skip):
+        hit |= (px[:, None] * eq[None, :, 0] + py[:, None] * eq[None, :, 1]
+                + eq[None, :, 2] <= 1e-9).all(1)
+    occ = hit.reshape(nx, ny, 9).any(-1)
+    # the room's walls: pad with occupied cells, so clearance also counts the walls
+    padded = np.pad(occ, 1, constant_values=True)
+    dist = distance_transform_edt(~padded)[1:-1, 1:-1] * resolution
+    # from a cell centre to the nearest occupied cell's edge, not its centre
+    clearance = np.maximum(dist - resolution / 2, 0.0)
+    clearance[occ] = 0.0
+    return OccupancyGrid(occ, resolution, clearance)

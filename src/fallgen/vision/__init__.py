@@ -1,0 +1,1 @@
+"""Egocentric vision: headless MuJoCo rendering of RGB, depth and segmentation."""

@@ -1,0 +1,122 @@
+"""The agent's egocentric camera: RGB, depth and segmentation of a compiled scene, headless.
+
+Rendered by MuJoCo's offscreen renderer (``MUJOCO_GL=egl`` by default, set by ``fallgen`` before
+MuJoCo is imported; ``osmesa`` also works). The camera sits at the agent's position at
+``AgentSpec.camera_height_m``, looks along its heading, tilted by the pose's tilt (up positive),
+with a 90 degree field of view (vertical = horizontal: the image is square), 300 x 300 pixels.
+
+- ``rgb``: (H, W, 3) uint8;
+- ``depth``: (H, W) float32 metres along the view axis (MuJoCo's linearised depth buffer);
+- ``instance``: (H, W) int16, an index into ``View.instances`` (owner names: ``obj:target``,
+  ``obj:d0``, furniture ids, ``wall_<side>``, ``floor``, ``ceiling``, ``agent``), -1 for none;
+- ``category``: (H, W) int16, an index into ``CATEGORY_LABELS`` (-1 for none).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from fallgen.nav.agent import AgentSpec, Pose
+from fallgen.world.scene import Scene
+
+WIDTH = HEIGHT = 300
+FOV_DEG = 90.0
+
+
+@dataclass(frozen=True)
+class View:
+    rgb: np.ndarray
+    depth: np.ndarray
+    instance: np.ndarray
+    category: np.ndarray
+    instances: tuple[str, ...]
+
+    def pixels_of(self, owner: str) -> int:
+        """How many pixels show ``owner`` (e.g. ``obj:target``)."""
+        if owner not in self.instances:
+            return 0
+        return int((self.instance == self.instances.index(owner)).sum())
+
+
+def category_labels(scene: Scene, object_categories: dict[str, str]) -> tuple[str, ...]:
+    """Category of every owner: an object's category (``object_categories``: object name ->
+    category id), a furniture item's kind, or the room surface (floor, wall, ceiling)."""
+    return tuple(sorted({_category(o, scene, object_categories) for o in set(scene.geom_owner)}))
+
+
+def _category(owner: str, scene: Scene, object_categories: dict[str, str]) -> str:
+    if owner.startswith("obj:"):
+        return object_categories.get(owner[4:], "object")
+    if owner.startswith("wall"):
+        return "wall"
+    if owner in ("floor", "ceiling", "agent"):
+        return owner
+    kinds = {f.id: f.type for f in scene.variant.furniture}
+    return kinds.get(owner, owner)
+
+
+class EgoCamera:
+    """Renders views of one compiled scene (keep one per scene: the GL context is reused)."""
+
+    def __init__(self, scene: Scene, object_categories: dict[str, str] | None = None,
+                 spec: AgentSpec = AgentSpec(), size: int = WIDTH) -> None:
+        self.scene, self.spec = scene, spec
+        m = scene.model
+        m.vis.global_.fovy = FOV_DEG
+        m.vis.map.znear = 0.01  # of the model's extent: ~5 cm in a room
+        self.renderer = mujoco.Renderer(m, size, size)
+        self.instances = tuple(sorted(set(scene.geom_owner)))
+        inst_of_geom = np.array([self.instances.index(o) for o in scene.geom_owner], np.int16)
+        cats = object_categories or {}
+        self.categories = category_labels(scene, cats)
+        cat_of_geom = np.array([self.categories.index(_category(o, scene, cats))
+                                for o in scene.geom_owner], np.int16)
+        # lookup by geom id, with a slot for "no geom" (-1 -> last)
+        self._inst = np.append(inst_of_geom, np.int16(-1))
+        self._cat = np.append(cat_of_geom, np.int16(-1))
+
+    def close(self) -> None:
+        self.renderer.close()
+
+    def camera(self, pose: Pose) -> mujoco.MjvCamera:
+        cam = mujoco.MjvCamera()
+        cam.type = mujoco.mjtCamera.mjCAMERA_FREE
+        yaw, tilt = pose.yaw_rad, math.radians(pose.tilt_deg)
+        fwd = np.array([math.cos(tilt) * math.cos(yaw), math.cos(tilt) * math.sin(yaw),
+                        math.sin(tilt)])
+        eye = np.array([pose.x, pose.y, self.spec.camera_height_m])
+        d = 1.0
+        cam.lookat[:] = eye + d * fwd
+        cam.distance = d
+        cam.azimuth = math.degrees(yaw)
+        cam.elevation = pose.tilt_deg
+        return cam
+
+    def render(self, data: mujoco.MjData, pose: Pose, what: str = "all") -> View:
+        """The view from ``pose``; ``what="segmentation"`` renders only the segmentation."""
+        r, cam = self.renderer, self.camera(pose)
+        rgb = depth = None
+        if what == "all":
+            r.update_scene(data, cam)
+            rgb = r.render().copy()
+            r.enable_depth_rendering()
+            r.update_scene(data, cam)
+            depth = r.render().astype(np.float32)
+            r.disable_depth_rendering()
+        r.enable_segmentation_rendering()
+        r.update_scene(data, cam)
+        seg = r.render()
+        r.disable_segmentation_rendering()
+        ids = seg[..., 0].astype(np.int64)
+        geom = np.where((seg[..., 1] == int(mujoco.mjtObj.mjOBJ_GEOM)) & (ids >= 0), ids, -1)
+        inst, cat = self._inst[geom], self._cat[geom]
+        empty = np.zeros((0, 0), np.float32)
+        return View(rgb if rgb is not None else np.zeros((0, 0, 3), np.uint8),
+                    depth if depth is not None else empty, inst, cat, self.instances)
+
+    def pixels_of(self, data: mujoco.MjData, pose: Pose, owner: str = "obj:target") -> int:
+        return self.render(data, pose, "segmentation").pixels_of(owner)

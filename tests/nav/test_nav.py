@@ -1,0 +1,134 @@
+"""Occupancy, the action simulator, the metrics and the expert planner (fallgen.nav)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.ndimage import distance_transform_edt
+
+from fallgen.nav.agent import (DOWN, FORWARD, FOUND, LEFT, MAX_ACTIONS, RIGHT, STEP_M, UP,
+                               AgentSpec, Pose, run, step)
+from fallgen.nav.expert import NoPath, expert
+from fallgen.nav.occupancy import OccupancyGrid, occupancy
+from fallgen.world.scene import build_scene
+
+
+def grid_from(occ, r=0.1):
+    padded = np.pad(occ, 1, constant_values=True)
+    d = distance_transform_edt(~padded)[1:-1, 1:-1] * r
+    cl = np.maximum(d - r / 2, 0)
+    cl[occ] = 0
+    return OccupancyGrid(occ, r, cl)
+
+
+EMPTY = grid_from(np.zeros((60, 40), bool))  # a 6 x 4 m empty room
+WALL = np.zeros((60, 40), bool)
+WALL[30:32, 0:30] = True  # a partition at x = 3.0-3.2 m, from y = 0 to 3 m
+WALLED = grid_from(WALL)
+ALWAYS = (lambda p: True)
+
+
+def test_room_occupancy_marks_furniture_and_keeps_aisles(world):
+    v = world.variant("kitchen_galley-l1-m1")
+    g = occupancy(build_scene(v, world.materials, []))
+    assert g.shape == (64, 36)
+    for item in v.furniture:
+        x, y, z = item.pose[:3]
+        i, j = g.cell((x, y))
+        r = int(np.ceil(max(item.size[:2]) / 2 / g.resolution)) + 1
+        near = g.occupied[max(i - r, 0):i + r + 1, max(j - r, 0):j + r + 1]
+        if z >= 1.2:  # a wall cabinet above the robot's height is no obstacle itself
+            continue
+        if item.type in ("basket", "box"):  # open containers: their walls, not the inside
+            assert near.any(), item.id
+        else:
+            assert g.occupied[i, j], item.id
+    assert 0.1 < g.occupied.mean() < 0.6
+    assert (g.clearance >= 0.25).sum() > 200  # room to drive
+    assert g.clearance[0].max() <= 0.1  # next to the west wall
+
+
+def test_rotations_are_exact_and_tilt_is_limited():
+    p = Pose(1.0, 1.0, 0)
+    for _ in range(12):
+        p, ok = step(p, LEFT, EMPTY)
+        assert ok
+    assert p == Pose(1.0, 1.0, 0)
+    p, _ = step(p, RIGHT, EMPTY)
+    assert p.heading == 11 and math.isclose(p.yaw_rad, math.radians(330))
+    spec = AgentSpec()
+    for _ in range(10):
+        p, _ = step(p, DOWN, EMPTY)
+    assert p.tilt_deg == spec.tilt_min_deg
+    p, ok = step(p, DOWN, EMPTY)
+    assert not ok and p.tilt_deg == spec.tilt_min_deg
+
+
+def test_forward_moves_and_collisions_stop_motion():
+    p, ok = step(Pose(1.0, 1.0, 0), FORWARD, EMPTY)
+    assert ok and p.x == pytest.approx(1.0 + STEP_M) and p.y == pytest.approx(1.0)
+    p, ok = step(Pose(1.0, 1.0, 2), FORWARD, EMPTY)  # 60 degrees
+    assert p.x == pytest.approx(1.0 + STEP_M / 2) and p.y == pytest.approx(1.0 + STEP_M * 3 ** .5 / 2)
+    # facing the partition 0.35 m away: the robot (radius 0.2) cannot close the gap to it
+    start = Pose(2.6, 1.0, 0)
+    p, ok = step(start, FORWARD, WALLED)
+    assert not ok and p == start
+    # walls of the room stop it too
+    p, ok = step(Pose(0.3, 1.0, 6), FORWARD, EMPTY)
+    assert not ok and p.x == 0.3
+
+
+def test_spl_and_sna_of_hand_made_sequences():
+    target = (3.0, 1.0, 0.0)
+    start = Pose(0.5, 1.0, 0)
+    # 4 forward (1 m), found: 1.5 m away, visible -> success
+    o = run(start, [FORWARD] * 4 + [FOUND], EMPTY, target, ALWAYS)
+    assert o.success and o.n_actions == 5 and o.path_m == pytest.approx(1.0)
+    assert o.distance_m == pytest.approx(1.5)
+    # with l = 0.75 m and n* = 4: SPL = 0.75 / 1.0, SNA = 4 / 5
+    assert o.spl(0.75) == pytest.approx(0.75) and o.sna(4) == pytest.approx(0.8)
+    # a detour: left, 2 forward, right... found while 2.5 m away: failure, SPL = SNA = 0
+    o = run(start, [LEFT, FORWARD, RIGHT, FOUND], EMPTY, target, ALWAYS)
+    assert not o.success and o.spl(0.75) == 0.0 and o.sna(4) == 0.0
+    # close enough but the object is not in view: failure
+    o = run(start, [FORWARD] * 4 + [FOUND], EMPTY, target, lambda p: False)
+    assert o.found_called and not o.success
+    # no found within the limit: failure, counted up to MAX_ACTIONS
+    o = run(start, [LEFT] * 300, EMPTY, target, ALWAYS)
+    assert not o.success and o.n_actions == MAX_ACTIONS and not o.found_called
+
+
+def test_expert_goes_around_an_obstacle_and_scores_one():
+    target = (5.0, 1.0, 0.05)
+    start = Pose(1.0, 1.0, 0)
+    e = expert(start, WALLED, target, ALWAYS, ALWAYS)
+    o = run(start, e.plan.actions, WALLED, target, ALWAYS)
+    assert o.success and o.spl(e.shortest_m) == pytest.approx(1.0)
+    assert o.sna(e.fewest_actions) > 0.8
+    assert e.plan.actions[-1] == FOUND
+    # it had to pass the partition's open end (y > 3 m)
+    assert max(p.y for p in o.poses) > 3.0 - 0.5
+    # every step of the way is free for the robot
+    assert all(WALLED.free_for(p.xy[None], 0.2)[0] for p in o.poses)
+
+
+def test_expert_tilts_down_to_an_object_at_its_feet():
+    target = (2.0, 1.0, 0.02)
+    e = expert(Pose(0.6, 1.0, 0), EMPTY, target, ALWAYS, ALWAYS)
+    assert DOWN in e.plan.actions and UP not in e.plan.actions
+    assert e.plan.goal.tilt_deg < 0
+
+
+def test_expert_uses_the_renderer_verdict_and_fails_cleanly():
+    target = (5.0, 1.0, 0.05)
+    calls = []
+
+    def never(p):
+        calls.append(p)
+        return False
+
+    with pytest.raises(NoPath):
+        expert(Pose(1.0, 1.0, 0), WALLED, target, ALWAYS, never)
+    assert calls  # candidates were rendered and all refused

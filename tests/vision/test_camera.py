@@ -1,0 +1,62 @@
+"""The egocentric camera (fallgen.vision.camera): geometry of the view, depth in metres,
+segmentation labels, headless and deterministic."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from fallgen.nav.agent import AgentSpec, Pose
+from fallgen.vision.camera import EgoCamera
+from fallgen.world.scene import PlacedObject, build_scene
+
+VARIANT = "kitchen_galley-l1-m1"
+
+
+@pytest.fixture(scope="module")
+def cam_scene(world):
+    v = world.variant(VARIANT)
+    inst = world.categories.instance("cup", "mug", "ceramic")
+    scene = build_scene(v, world.materials, [PlacedObject("target", inst, (4.0, 1.8, 0.05))])
+    d = scene.data()
+    mujoco.mj_forward(scene.model, d)
+    cam = EgoCamera(scene, {"target": "cup"})
+    yield cam, d
+    cam.close()
+
+
+def test_view_arrays_and_labels(cam_scene):
+    cam, d = cam_scene
+    v = cam.render(d, Pose(2.5, 1.8, 0, -15))
+    assert v.rgb.shape == (300, 300, 3) and v.rgb.dtype == np.uint8
+    assert v.depth.shape == (300, 300) and v.depth.dtype == np.float32
+    assert v.instance.shape == v.category.shape == (300, 300)
+    assert "obj:target" in v.instances and "cup" in cam.categories and "floor" in cam.categories
+    px = v.pixels_of("obj:target")
+    assert px > 20
+    # the cup's pixels are labelled with its category, and lie in the middle columns
+    mask = v.instance == v.instances.index("obj:target")
+    assert (v.category[mask] == cam.categories.index("cup")).all()
+    cols = np.nonzero(mask.any(0))[0]
+    assert 130 < cols.mean() < 170
+    again = cam.render(d, Pose(2.5, 1.8, 0, -15))
+    assert np.array_equal(v.rgb, again.rgb) and np.array_equal(v.instance, again.instance)
+
+
+def test_turning_away_hides_the_object(cam_scene):
+    cam, d = cam_scene
+    assert cam.pixels_of(d, Pose(2.5, 1.8, 6, 0)) == 0  # facing -x
+    assert cam.pixels_of(d, Pose(2.5, 1.8, 0, 0)) > 0
+
+
+def test_depth_is_metres_along_the_view_axis(cam_scene):
+    """The centre pixel's depth equals the distance MuJoCo's ray cast finds straight ahead."""
+    cam, d = cam_scene
+    pose = Pose(2.5, 1.2, 0, 0)
+    v = cam.render(d, pose)
+    eye = np.array([pose.x, pose.y, AgentSpec().camera_height_m])
+    geomid = np.zeros(1, np.int32)
+    dist = mujoco.mj_ray(cam.scene.model, d, eye, np.array([1.0, 0.0, 0.0]), None, 1, -1, geomid)
+    centre = v.depth[148:152, 148:152].mean()
+    assert centre == pytest.approx(dist, rel=0.02)
