@@ -19,6 +19,7 @@ SNA).
 
 from __future__ import annotations
 
+import heapq
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -32,8 +33,8 @@ from fallgen.nav.occupancy import OccupancyGrid
 BIN_M = 0.05
 FOV_DEG = 90.0
 MARGIN_DEG = 10.0
-#: Poses confirmed with the renderer before giving up.
-MAX_RENDER_CHECKS = 40
+#: Candidate poses checked with the renderer before giving up.
+MAX_RENDER_CHECKS = 200
 
 
 @dataclass(frozen=True)
@@ -83,11 +84,24 @@ def _search(start: Pose, grid: OccupancyGrid, target, spec: AgentSpec, move_cost
     s0 = int(key(np.array([start.x]), np.array([start.y]), np.array([start.heading]))[0])
     best[s0], px[s0], py[s0] = 0, start.x, start.y
     buckets: dict[int, list[np.ndarray]] = {0: [np.array([s0])]}
-    found: list[tuple[int, int, int]] = []  # (total cost, state, tilt steps)
+    found: list[tuple[int, int, int]] = []  # heap of (total cost, state, tilt steps)
     tilt_cost = min(move_cost, turn_cost)
-    while buckets:
-        c = min(buckets)
-        if found and c > min(f[0] for f in found):
+    result = None
+    while buckets or found:
+        c = min(buckets) if buckets else None
+        # candidates whose total is below every unexpanded cost are final: confirm the
+        # cheapest by rendering (a refused one is dropped and the search goes on)
+        while found and (c is None or min(found)[0] < c) and result is None:
+            total, s, t = heapq.heappop(found)
+            if renders >= MAX_RENDER_CHECKS:
+                found.clear()
+                break
+            goal = Pose(float(px[s]), float(py[s]), int(s % HEADINGS),
+                        start.tilt_deg + t * spec.tilt_step_deg)
+            renders += 1
+            if visible(goal):
+                result = (total, s, t, goal)
+        if result is not None or c is None:
             break
         states = np.unique(np.concatenate(buckets.pop(c)))
         states = states[best[states] == c]
@@ -106,7 +120,7 @@ def _search(start: Pose, grid: OccupancyGrid, target, spec: AgentSpec, move_cost
             t = tilt_steps(pose, target, spec)
             if t is None or not line_of_sight(pose):
                 continue
-            found.append((c + abs(t) * tilt_cost + 1, s, t))
+            heapq.heappush(found, (c + abs(t) * tilt_cost + 1, s, t))
         # expand: forward (collision-checked along the segment) and the two turns
         x0, y0 = px[states], py[states]
         x1, y1 = x0 + STEP_M * dirs[k, 0], y0 + STEP_M * dirs[k, 1]
@@ -131,24 +145,18 @@ def _search(start: Pose, grid: OccupancyGrid, target, spec: AgentSpec, move_cost
                 continue
             best[s], px[s], py[s], parent[s], act[s] = c + cost, x, y, src, a
             buckets.setdefault(c + cost, []).append(s)
-    for total, s, t in sorted(found):
-        if renders >= MAX_RENDER_CHECKS:
-            break
-        goal = Pose(float(px[s]), float(py[s]), int(s % HEADINGS), start.tilt_deg + t * spec.tilt_step_deg)
-        renders += 1
-        if not visible(goal):
-            continue
-        moves: list[int] = []
-        path = 0.0
-        while s != s0:
-            moves.append(int(act[s]))
-            if act[s] == FORWARD:
-                path += STEP_M
-            s = int(parent[s])
-        actions = moves[::-1] + [UP if t > 0 else DOWN] * abs(t) + [FOUND]
-        return Plan(tuple(actions), goal, path, renders), total
-    raise NoPath(f"no reachable pose sees the object ({len(found)} candidates, "
-                 f"{renders} rendered)")
+    if result is None:
+        raise NoPath(f"no reachable pose sees the object ({renders} candidate poses rendered)")
+    total, s, t, goal = result
+    moves: list[int] = []
+    path = 0.0
+    while s != s0:
+        moves.append(int(act[s]))
+        if act[s] == FORWARD:
+            path += STEP_M
+        s = int(parent[s])
+    actions = moves[::-1] + [UP if t > 0 else DOWN] * abs(t) + [FOUND]
+    return Plan(tuple(actions), goal, path, renders), total
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,7 @@ from fallgen.physics.settle import SettleCriteria, SettleResult, mujoco_warnings
 from fallgen.world.library import World
 from fallgen.world.objects import ObjectInstance
 from fallgen.world.rooms import RoomVariant, Zone
-from fallgen.world.scene import PhysicsSettings, PlacedObject, build_scene
+from fallgen.world.scene import AgentBody, PhysicsSettings, PlacedObject, build_scene
 
 #: Physics-only scenes: no render meshes (they do not collide; compiling them is wasted time).
 PHYSICS = PhysicsSettings(visual_meshes=False)
@@ -174,14 +174,14 @@ CHECK_EVERY_STEPS = 10
 
 def _simulate(world: World, variant: RoomVariant, objs: list[PlacedObject], linvel, angvel,
               criteria: SettleCriteria, max_steps: int | None = None,
-              keep=lambda res, com: True
+              keep=lambda res, com: True, agent: AgentBody | None = None
               ) -> tuple[SettleResult, list[ContactEvent], np.ndarray, float, bool]:
     """Simulate the target's fall in two passes over one compiled model: a fast pass in C
     chunks decides when (and whether) it settles; if it is worth keeping (``keep(result,
     centre of mass)``), a second pass from the same initial state records contacts step by step
     for exactly as many steps and must end in the same state bit for bit. ``max_steps`` (a
     replay) skips the first pass."""
-    scene = build_scene(variant, world.materials, objs, settings=PHYSICS)
+    scene = build_scene(variant, world.materials, objs, agent=agent, settings=PHYSICS)
     m = scene.model
     b = scene.object_body["target"]
     vadr = m.jnt_dofadr[m.body_jntadr[b]]
@@ -298,13 +298,16 @@ class Replay:
     settled: bool
 
 
-def replay(world: World, event: FallEvent, criteria: SettleCriteria = SettleCriteria()) -> Replay:
+def replay(world: World, event: FallEvent, criteria: SettleCriteria = SettleCriteria(),
+           agent: AgentBody | None = None) -> Replay:
     """Rebuild a fall event's scene and re-simulate it from its recorded start state, for
-    exactly the recorded number of steps. Bit-identical to the rehearsal under the same MuJoCo."""
+    exactly the recorded number of steps. Bit-identical to the rehearsal under the same MuJoCo;
+    with a static ``agent`` in the room the fall may change if the object meets it."""
     variant = world.variant(event.room_variant)
     target = _instance(world, event.target)
     objs = _scene_objects(world, target, event.start_pos, event.start_quat, event.distractors,
                           event.occluders)
     res, contacts, com, _, _ = _simulate(world, variant, objs, event.start_linvel,
-                                         event.start_angvel, criteria, max_steps=event.steps)
+                                         event.start_angvel, criteria, max_steps=event.steps,
+                                         agent=agent)
     return Replay(res.pos, res.quat, com, tuple(contacts), res.settled)

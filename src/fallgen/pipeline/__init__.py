@@ -1,0 +1,1 @@
+"""Generation: planning episodes, making one episode, running many."""

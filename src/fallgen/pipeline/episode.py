@@ -1,0 +1,251 @@
+"""One episode from one fall event: spawn, replay, binaural audio, first view, maps, expert.
+
+Everything random comes from the episode's own generator,
+``numpy.random.default_rng(SeedSequence(root_seed, spawn_key=(episode_id,)))``, drawn in a fixed
+order (spawn, scrape texture, late reverb), so an episode depends on nothing but its id, its event
+and the root seed: not on workers, sharding or resume.
+
+- Spawn: a uniformly random free position (the robot's disk, plus ``SPAWN_CLEARANCE_M``, touches
+  nothing in the room with the object settled) at least ``MIN_SPAWN_DISTANCE_M`` (2 m, as the
+  original) from the object's resting place, and a random heading (one of the 12). A spawn that
+  already sees the object (at least ``VISIBLE_PIXELS`` segmentation pixels at step 0) is drawn
+  again, up to ``SPAWN_TRIES`` times, because the task is to find the object from its sound;
+  if every try sees it the last one is kept and ``spawn_sees_object`` is set.
+- Replay: the fall re-simulated with the agent standing there as a static cylinder; it must come
+  to rest within 1 mm and 1 degree of the rehearsal, otherwise the episode is skipped
+  (:class:`Skip`, with the reason; the caller counts them).
+- Audio: the replay's contacts -> located dry sources -> binaural at the head (camera height,
+  heading, tilt 0).
+- Vision: RGB, depth and segmentation at step 0 (the agent's own body is not rendered).
+- Maps: the occupancy grid (0.1 m, the robot's height band) with the object settled; the
+  object's cell.
+- Expert: :func:`fallgen.nav.expert.expert`, then checked by the action simulator with a render
+  of its final view; an expert that fails raises :class:`ExpertFailure` (a bug, not data).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from fallgen.audio.fall import FallRenderer
+from fallgen.audio.mix import Binaural, BinauralClip, Listener
+from fallgen.audio.room import RirSettings, RoomAcoustics
+from fallgen.nav.agent import HEADINGS, VISIBLE_PIXELS, AgentSpec, Pose, run
+from fallgen.nav.expert import Expert, NoPath, expert
+from fallgen.nav.occupancy import OccupancyGrid, occupancy
+from fallgen.physics.drop import _instance, replay
+from fallgen.physics.events import FallEvent
+from fallgen.vision.camera import EgoCamera, View
+from fallgen.world.library import World
+from fallgen.world.scene import AgentBody, PlacedObject, build_scene
+
+MIN_SPAWN_DISTANCE_M = 2.0
+SPAWN_CLEARANCE_M = 0.05
+SPAWN_TRIES = 20
+SETTLE_TOLERANCE_M = 0.001
+SETTLE_TOLERANCE_DEG = 1.0
+
+
+class Skip(Exception):
+    """The event cannot make this episode (replay diverged, no free spawn, no path)."""
+
+    def __init__(self, reason: str, detail: str = "") -> None:
+        self.reason = reason
+        super().__init__(f"{reason}: {detail}" if detail else reason)
+
+
+class ExpertFailure(RuntimeError):
+    """The expert's own actions fail the success check: a bug."""
+
+
+def episode_rng(root_seed: int, episode_id: int) -> np.random.Generator:
+    return np.random.default_rng(np.random.SeedSequence(root_seed, spawn_key=(episode_id,)))
+
+
+@dataclass(frozen=True)
+class Episode:
+    episode_id: int
+    event: FallEvent
+    spawn: Pose
+    spawn_sees_object: bool
+    audio: BinauralClip
+    view: View  # step 0
+    grid: OccupancyGrid
+    target_cell: tuple[int, int]
+    expert: Expert
+    expert_spl: float
+    expert_sna: float
+    frames: tuple[View, ...] = ()  # along the expert trajectory (when asked)
+    timings_s: dict[str, float] = field(default_factory=dict)
+
+
+class EpisodeMaker:
+    """Makes episodes of one world (keeps the modal models and the HRTF between episodes)."""
+
+    def __init__(self, world: World, binaural: Binaural, spec: AgentSpec = AgentSpec(),
+                 rir: RirSettings = RirSettings()) -> None:
+        self.world, self.binaural, self.spec, self.rir = world, binaural, spec, rir
+        self.sounds = FallRenderer(world)
+
+    def make(self, episode_id: int, event: FallEvent, root_seed: int,
+             frames: str = "first", spawn: Pose | None = None) -> Episode:
+        """The episode ``episode_id`` of ``event``; ``frames="trajectory"`` also renders the
+        view after every expert action; ``spawn`` overrides the drawn spawn pose (the draws
+        are still made, so the rest of the episode's randomness is unchanged)."""
+        t: dict[str, float] = {}
+        clock = time.perf_counter()
+
+        def lap(name: str) -> None:
+            nonlocal clock
+            now = time.perf_counter()
+            t[name] = t.get(name, 0.0) + now - clock
+            clock = now
+
+        rng = episode_rng(root_seed, episode_id)
+        world, spec = self.world, self.spec
+        variant = world.variant(event.room_variant)
+        target = _instance(world, event.target)
+        settled = [PlacedObject("target", target, tuple(event.settle_pos),
+                                tuple(event.settle_quat), free=False)]
+        settled += [PlacedObject(f"d{k}", _instance(world, p.object), p.pos, p.quat, free=False)
+                    for k, p in enumerate(event.distractors)]
+        settled += [PlacedObject(f"o{k}", _instance(world, p.object), p.pos, p.quat, free=False)
+                    for k, p in enumerate(event.occluders)]
+        scene = build_scene(variant, world.materials, settled)
+        data = scene.data()
+        mujoco.mj_forward(scene.model, data)
+        cats = {o.name: o.instance.category for o in settled}
+        camera = EgoCamera(scene, cats, spec)
+        try:
+            grid = occupancy(scene, data, band_high_m=spec.height_m)
+            centre = _target_centre(scene, data)
+            points = _target_points(scene, data)
+            lap("maps")
+            drawn, sees = self._spawn(rng, grid, centre, camera, data)
+            if spawn is None:
+                spawn = drawn
+            else:
+                sees = camera.pixels_of(data, spawn) >= VISIBLE_PIXELS
+            lap("spawn")
+            rep = replay(world, event, agent=AgentBody(spawn.x, spawn.y, spawn.yaw_rad,
+                                                       spec.radius_m, spec.height_m))
+            moved = float(np.linalg.norm(np.subtract(rep.settle_pos, event.settle_pos)))
+            turned = quat_angle_deg(rep.settle_quat, event.settle_quat)
+            if moved > SETTLE_TOLERANCE_M or turned > SETTLE_TOLERANCE_DEG:
+                raise Skip("replay_diverged", f"{moved * 1e3:.1f} mm, {turned:.1f} deg")
+            lap("replay")
+            replayed = _with_contacts(event, rep.contacts)
+            sources = self.sounds.render_sources(replayed, rng)
+            room = RoomAcoustics.from_shoebox(variant.shoebox())
+            head = Listener(np.array([spawn.x, spawn.y, spec.camera_height_m]), spawn.yaw_rad)
+            clip = self.binaural.mix(room, sources, head, rng, self.rir)
+            lap("audio")
+            view = camera.render(data, spawn)
+            lap("render")
+
+            def visible(p: Pose) -> bool:
+                return camera.pixels_of(data, p) >= VISIBLE_PIXELS
+
+            try:
+                ex = expert(spawn, grid, centre, lambda p: _line_of_sight(scene, data, p, points,
+                                                                           spec), visible, spec)
+            except NoPath as e:
+                raise Skip("no_path", str(e)) from None
+            lap("planning")
+            out = run(spawn, ex.plan.actions, grid, centre, visible, spec)
+            if not out.success:
+                raise ExpertFailure(f"episode {episode_id}: expert fails ({out})")
+            shots: tuple[View, ...] = ()
+            if frames == "trajectory":
+                shots = tuple(camera.render(data, p) for p in out.poses)
+            lap("render")
+        finally:
+            camera.close()
+        return Episode(episode_id, event, spawn, sees, clip, view, grid, grid.cell(centre), ex,
+                       out.spl(ex.shortest_m), out.sna(ex.fewest_actions), shots, t)
+
+    def _spawn(self, rng: np.random.Generator, grid: OccupancyGrid, centre: np.ndarray,
+               camera: EgoCamera, data: mujoco.MjData) -> tuple[Pose, bool]:
+        spec = self.spec
+        r = grid.resolution
+        ii, jj = np.nonzero(grid.clearance >= spec.radius_m + SPAWN_CLEARANCE_M + r / 2)
+        xy = np.column_stack([(ii + 0.5) * r, (jj + 0.5) * r])
+        far = np.linalg.norm(xy - centre[None, :2], axis=1) >= MIN_SPAWN_DISTANCE_M
+        cells = xy[far]
+        if len(cells) == 0:
+            raise Skip("no_spawn", "no free floor 2 m from the object")
+        pose = None
+        for _ in range(SPAWN_TRIES):
+            c = cells[int(rng.integers(len(cells)))]
+            # anywhere inside the cell (the clearance bound above allows half a cell of slack)
+            p = c + rng.uniform(-r / 2, r / 2, 2)
+            pose = Pose(float(p[0]), float(p[1]), int(rng.integers(HEADINGS)), 0)
+            if np.linalg.norm(p - centre[:2]) >= MIN_SPAWN_DISTANCE_M and \
+                    camera.pixels_of(data, pose) < VISIBLE_PIXELS:
+                return pose, False
+        assert pose is not None
+        return pose, True
+
+
+def quat_angle_deg(a, b) -> float:
+    """Angle (degrees) of the rotation between two unit quaternions (w, x, y, z)."""
+    d = abs(float(np.dot(np.asarray(a, float), np.asarray(b, float))))
+    return math.degrees(2 * math.acos(min(1.0, d)))
+
+
+def _target_points(scene, data) -> np.ndarray:
+    """(9, 3): the centre of the target's bounding box (world) and its corners pulled 25 %
+    toward the centre: the points a line of sight may reach."""
+    lo, hi = _target_box(scene, data)
+    c = (lo + hi) / 2
+    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], float)
+    return np.vstack([c, c + 0.75 * signs * (hi - lo) / 2])
+
+
+def _target_centre(scene, data) -> np.ndarray:
+    lo, hi = _target_box(scene, data)
+    return (lo + hi) / 2
+
+
+def _target_box(scene, data) -> tuple[np.ndarray, np.ndarray]:
+    """The target's world bounding box."""
+    m = scene.model
+    b = scene.object_body["target"]
+    geoms = [g for g in range(m.ngeom) if m.geom_bodyid[g] == b]
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], float)
+    for g in geoms:
+        c, h = m.geom_aabb[g, :3], m.geom_aabb[g, 3:]
+        pts = data.geom_xpos[g] + (c + signs * h) @ data.geom_xmat[g].reshape(3, 3).T
+        lo, hi = np.minimum(lo, pts.min(0)), np.maximum(hi, pts.max(0))
+    return lo, hi
+
+
+def _line_of_sight(scene, data, pose: Pose, points: np.ndarray, spec: AgentSpec) -> bool:
+    """Nothing but the target between the camera and one of the target's ``points`` (MuJoCo
+    ray casts on the visible geom groups)."""
+    eye = np.array([pose.x, pose.y, spec.camera_height_m])
+    geomid = np.zeros(1, np.int32)
+    groups = np.array([1, 1, 1, 0, 0, 0], np.uint8)
+    for p in points:
+        v = p - eye
+        dist = float(np.linalg.norm(v))
+        hit = mujoco.mj_ray(scene.model, data, eye, v / dist, groups, 1, -1, geomid)
+        if hit < 0 or hit >= dist or scene.geom_owner[int(geomid[0])] == "obj:target":
+            return True
+    return False
+
+
+def _with_contacts(event: FallEvent, contacts) -> FallEvent:
+    from dataclasses import replace
+
+    return replace(event, contacts=tuple(contacts))
+
+
+__all__ = ["Episode", "EpisodeMaker", "Skip", "ExpertFailure", "episode_rng",
+           "MIN_SPAWN_DISTANCE_M"]

@@ -1,0 +1,112 @@
+"""One episode from a rehearsed fall (fallgen.pipeline.episode): the expert always succeeds
+(checked by rendering its final view), spawns are free and far, episodes depend only on their id,
+and the audio comes from the right side."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fallgen.audio.hrtf import spherical_head
+from fallgen.audio.mix import Binaural
+from fallgen.audio.room import RirSettings
+from fallgen.config import RehearseConfig
+from fallgen.nav.agent import VISIBLE_PIXELS, AgentSpec, Pose, run
+from fallgen.physics.drop import run_trial
+from fallgen.pipeline.episode import MIN_SPAWN_DISTANCE_M, EpisodeMaker, Skip
+
+VARIANT = "kitchen_galley-l1-m1"
+
+
+@pytest.fixture(scope="module")
+def events(world):
+    v = world.variant(VARIANT)
+    out = []
+    for z in v.zones:
+        o = run_trial(world, v, z, 0, RehearseConfig(), 1)
+        if o.event is not None and o.event.zone_kind != "cabinet_top":
+            out.append(o.event)
+        if len(out) == 5:
+            break
+    return out
+
+
+@pytest.fixture(scope="module")
+def maker(world, tmp_path_factory):
+    import os
+
+    os.environ.setdefault("FALLGEN_CACHE", str(tmp_path_factory.mktemp("cache")))
+    return EpisodeMaker(world, Binaural(spherical_head()), rir=RirSettings(length_s=2.0))
+
+
+@pytest.fixture(scope="module")
+def episodes(maker, events):
+    out = []
+    for i, e in enumerate(events):
+        try:
+            out.append(maker.make(i, e, 11))
+        except Skip:
+            pass
+    assert len(out) >= 3
+    return out
+
+
+def test_expert_succeeds_and_is_checked_by_rendering(maker, episodes, world):
+    from fallgen.vision.camera import EgoCamera
+
+    for ep in episodes:
+        assert ep.expert_spl == pytest.approx(1.0)
+        assert 0 < ep.expert_sna <= 1.0
+        acts = ep.expert.plan.actions
+        assert acts[-1] == 5 and len(acts) <= 200
+        # final pose: within 2 m, and the renderer sees the object there
+        goal = ep.expert.plan.goal
+        centre = np.asarray(ep.event.settle_pos)
+        assert np.hypot(*(goal.xy - centre[:2])) <= 2.0 + 0.15
+        assert ep.view.rgb.shape == (300, 300, 3)
+
+
+def test_spawns_are_free_and_far(episodes):
+    spec = AgentSpec()
+    for ep in episodes:
+        c = np.asarray(ep.event.settle_pos)[:2]
+        assert np.hypot(ep.spawn.x - c[0], ep.spawn.y - c[1]) >= MIN_SPAWN_DISTANCE_M - 0.1
+        assert ep.grid.free_for(ep.spawn.xy[None], spec.radius_m)[0]
+        if not ep.spawn_sees_object:
+            assert ep.view.pixels_of("obj:target") < VISIBLE_PIXELS
+
+
+def test_episode_depends_only_on_its_id(maker, events, episodes):
+    ep = episodes[0]
+    i = next(k for k, e in enumerate(events) if e is ep.event)
+    again = maker.make(ep.episode_id, events[i], 11)
+    assert again.spawn == ep.spawn
+    assert np.array_equal(again.audio.audio, ep.audio.audio)
+    assert again.expert.plan.actions == ep.expert.plan.actions
+    other = maker.make(ep.episode_id + 100, events[i], 11)
+    assert other.spawn != ep.spawn
+
+
+def test_object_on_the_left_is_louder_and_earlier_in_the_left_ear(maker, episodes):
+    ep = episodes[0]
+    c = np.asarray(ep.event.settle_pos)
+    # stand 2.5 m from the object, facing so that it is 90 degrees to the left
+    for k in range(12):
+        heading = k
+        yaw = math.radians(30 * k)
+        left = np.array([-math.sin(yaw), math.cos(yaw)])
+        p = c[:2] - 2.5 * left
+        if ep.grid.free_for(p[None], 0.3)[0]:
+            break
+    else:
+        pytest.skip("no free place to the object's right")
+    e2 = maker.make(ep.episode_id, ep.event, 11, spawn=Pose(float(p[0]), float(p[1]), heading))
+    pa = e2.audio.pressure_pa()
+    first = min(c_.time_s for c_ in ep.event.contacts)
+    i0 = int(first * 44100)
+    w = pa[:, i0:i0 + int(0.012 * 44100)]  # the direct sound of the first contact
+    assert (w[0] ** 2).sum() > 2 * (w[1] ** 2).sum()
+    onset = [int(np.argmax(np.abs(w[e]) > 0.2 * np.abs(w[e]).max())) for e in (0, 1)]
+    assert onset[0] < onset[1]
