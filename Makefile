@@ -49,7 +49,7 @@ rehearse: setup
 	$(FALLGEN) rehearse --config $(CONFIG) --workers $(WORKERS)
 
 generate: setup
-	@echo "generate: the generation phase is not built yet (issue 6)"; exit 1
+	$(FALLGEN) generate --config $(CONFIG) --workers $(WORKERS)
 
 dataset: rehearse generate
 

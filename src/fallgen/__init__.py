@@ -13,3 +13,8 @@ import os as _os
 # (Mesa's software rasteriser on a machine without a GPU) before anything imports it, unless
 # the user chose (MUJOCO_GL=osmesa also works).
 _os.environ.setdefault("MUJOCO_GL", "egl")
+# Bit-for-bit reproducible output: a multi-threaded BLAS sums in an order that depends on its
+# thread count (last-bit differences in the audio), so numpy's BLAS runs one thread (parallelism
+# is by worker processes). Takes effect when fallgen is imported before numpy (the CLI does).
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    _os.environ.setdefault(_var, "1")

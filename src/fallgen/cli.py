@@ -126,6 +126,67 @@ def rehearse(
     console.print(f"{k} events kept of {n} trials in {len(stats)} variants -> {dest}")
 
 
+@app.command()
+def generate(
+    config: Annotated[Path, typer.Option("--config", "-c", help="Build config (configs/*.toml).")],
+    workers: Annotated[int, typer.Option(min=1, help="Worker processes (whole shards each).")] = 1,
+    out: Annotated[Optional[Path], typer.Option(help="Dataset directory (default: the config's "
+                                                "build.out, where the rehearsal is).")] = None,
+    frames: Annotated[Optional[str], typer.Option(
+        help="'first' (the view at step 0) or 'trajectory' (also after every expert action); "
+             "default: the config's.")] = None,
+    data_dir: DataDir = None,
+) -> None:
+    """Generation phase: rehearsed falls -> episodes (spawn, binaural audio, first view, maps,
+    expert trajectory), written as Parquet + HDF5 shards; finished shards are kept (resume)."""
+    import dataclasses
+    from collections import Counter
+
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, \
+        TimeElapsedColumn
+
+    from fallgen.config import load_config
+    from fallgen.pipeline.generate import generate as run, load_events, shard_jobs
+    from fallgen.pipeline.plan import plan
+
+    cfg = load_config(config)
+    if frames is not None:
+        if frames not in ("first", "trajectory"):
+            raise typer.BadParameter("--frames must be 'first' or 'trajectory'")
+        cfg = dataclasses.replace(cfg, generate=dataclasses.replace(cfg.generate, frames=frames))
+    world = _world(data_dir)
+    try:
+        events = load_events(cfg, out)
+    except FileNotFoundError as e:
+        raise InputError(config, "build.out", str(e)) from None
+    n_shards = len(shard_jobs(plan(events, cfg.generate.episodes, cfg.root_seed),
+                              cfg.generate.episodes_per_shard))
+    skips: Counter = Counter()
+    timings: Counter = Counter()
+    made = 0
+    with Progress(TextColumn("generate"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  TextColumn("{task.description}"), console=console) as bar:
+        task = bar.add_task("", total=n_shards)
+
+        def tick(r) -> None:
+            nonlocal made
+            made += r.episodes
+            skips.update(r.skips)
+            timings.update(r.timings_s)
+            bar.update(task, advance=1, description=f"{r.name}: " + (
+                "done before" if r.skipped_shard else f"{r.episodes} episodes"))
+
+        run(world, cfg, out, workers=workers, progress=tick)
+    dest = out or cfg.out
+    console.print(f"{made} episodes in {n_shards} shards -> {dest}/data, {dest}/media")
+    if skips:
+        console.print("events skipped: " + ", ".join(f"{k} {v}" for k, v in skips.most_common()))
+    total = sum(timings.values())
+    if total:
+        console.print("time by stage: " + ", ".join(
+            f"{k} {v:.1f} s ({v / total:.0%})" for k, v in timings.most_common()))
+
+
 # --- rooms --------------------------------------------------------------------------------------
 
 @rooms_app.command("list")

@@ -22,12 +22,28 @@ class RehearseConfig:
     settle: SettleCriteria = SettleCriteria()
 
 
+#: Split names in their order of episode ids.
+SPLITS = ("train", "validation", "test")
+
+
+@dataclass(frozen=True)
+class GenerateConfig:
+    #: episodes per split (train, validation, test)
+    episodes: tuple[int, int, int] = (6000, 1000, 1000)
+    frames: str = "first"  # "first" or "trajectory"
+    hrtf: str = ""  # a SOFA file; "" = the spherical-head model
+    audio_s: float = 2.0
+    image_source_order: int = 6
+    episodes_per_shard: int = 500
+
+
 @dataclass(frozen=True)
 class BuildConfig:
     root_seed: int
     out: Path
     rehearse: RehearseConfig
     file: Path
+    generate: GenerateConfig = GenerateConfig()
 
 
 def _rehearse(f: Fields) -> RehearseConfig:
@@ -52,6 +68,24 @@ def _rehearse(f: Fields) -> RehearseConfig:
     return r
 
 
+def _generate(f: Fields) -> GenerateConfig:
+    e = f.table("episodes")
+    counts = tuple(e.int(s, lo=0, hi=10_000_000) for s in SPLITS)
+    e.reject_unknown()
+    g = GenerateConfig(
+        episodes=counts,  # type: ignore[arg-type]
+        frames=f.str("frames", choices=("first", "trajectory")),
+        hrtf=f.str("hrtf"),
+        audio_s=f.float("audio_s", positive=True, hi=30.0),
+        image_source_order=f.int("image_source_order", lo=0, hi=30),
+        episodes_per_shard=f.int("episodes_per_shard", lo=1, hi=100_000),
+    )
+    if sum(g.episodes) == 0:
+        raise e.error(SPLITS[0], "at least one episode is needed")
+    f.reject_unknown()
+    return g
+
+
 def load_config(path: str | Path) -> BuildConfig:
     """Load and validate a build config; every field is required (no silent defaults)."""
     f = load_toml(path)
@@ -59,6 +93,7 @@ def load_config(path: str | Path) -> BuildConfig:
     root_seed = b.int("root_seed", lo=0)
     out = Path(b.str("out"))
     b.reject_unknown()
-    cfg = BuildConfig(root_seed, out, _rehearse(f.table("rehearse")), Path(path))
+    cfg = BuildConfig(root_seed, out, _rehearse(f.table("rehearse")), Path(path),
+                      _generate(f.table("generate")))
     f.reject_unknown()
     return cfg

@@ -157,7 +157,10 @@ def solve_shape(vertices: np.ndarray, faces: np.ndarray, nu: float,
                      stiffness_scale=solid.stiffness_scale, density_scale=solid.fill)
     nodes, _ = lattice(solid.occupied, h, solid.origin)
     surf, area = _surface(solid, nodes)
-    return ModalModel(vm.omega, nodes[surf], area, vm.shapes[surf].astype(np.float32), nu, h,
+    # C order, as a model loaded from the cache has (the memory layout decides the summation
+    # order of later reductions, so a fresh model and a cached one give identical sounds)
+    return ModalModel(vm.omega, nodes[surf], area,
+                      np.ascontiguousarray(vm.shapes[surf], dtype=np.float32), nu, h,
                       solid.n_voxels, solid.volume_error)
 
 
@@ -204,7 +207,8 @@ def shell_model(shell: ThinShell, nu: float, settings: ModalSettings = ModalSett
     milliseconds: not cached)."""
     nu = round_nu(nu)
     omega, points, area, shapes, h = shell_modes(shell, nu, E_REF, RHO_REF, settings.n_modes)
-    return ModalModel(omega, points, area, shapes.astype(np.float32), nu, h, 0, 0.0)
+    return ModalModel(omega, points, area, np.ascontiguousarray(shapes, dtype=np.float32), nu,
+                      h, 0, 0.0)
 
 
 def modal_model(vertices: np.ndarray, faces: np.ndarray, nu: float,

@@ -40,7 +40,7 @@ from fallgen.nav.expert import Expert, NoPath, expert
 from fallgen.nav.occupancy import OccupancyGrid, occupancy
 from fallgen.physics.drop import _instance, replay
 from fallgen.physics.events import FallEvent
-from fallgen.vision.camera import EgoCamera, View
+from fallgen.vision.camera import EgoCamera, View, world_category_labels
 from fallgen.world.library import World
 from fallgen.world.scene import AgentBody, PlacedObject, build_scene
 
@@ -91,6 +91,7 @@ class EpisodeMaker:
                  rir: RirSettings = RirSettings()) -> None:
         self.world, self.binaural, self.spec, self.rir = world, binaural, spec, rir
         self.sounds = FallRenderer(world)
+        self.labels = world_category_labels(world)  # one segmentation table for a dataset
 
     def make(self, episode_id: int, event: FallEvent, root_seed: int,
              frames: str = "first", spawn: Pose | None = None) -> Episode:
@@ -120,7 +121,7 @@ class EpisodeMaker:
         data = scene.data()
         mujoco.mj_forward(scene.model, data)
         cats = {o.name: o.instance.category for o in settled}
-        camera = EgoCamera(scene, cats, spec)
+        camera = EgoCamera(scene, cats, spec, labels=self.labels)
         try:
             grid = occupancy(scene, data, band_high_m=spec.height_m)
             centre = _target_centre(scene, data)

@@ -44,8 +44,17 @@ class View:
 
 def category_labels(scene: Scene, object_categories: dict[str, str]) -> tuple[str, ...]:
     """Category of every owner: an object's category (``object_categories``: object name ->
-    category id), a furniture item's kind, or the room surface (floor, wall, ceiling)."""
+    category id), a furniture item's type, or the room surface (floor, wall, ceiling)."""
     return tuple(sorted({_category(o, scene, object_categories) for o in set(scene.geom_owner)}))
+
+
+def world_category_labels(world) -> tuple[str, ...]:
+    """Every category label a scene of ``world`` can have (the same table for a whole
+    dataset): object categories, furniture types, room surfaces, the agent."""
+    names = {c.id for c in world.categories} | {"object", "floor", "wall", "ceiling", "agent"}
+    for v in world.variants():
+        names |= {f.type for f in v.furniture}
+    return tuple(sorted(names))
 
 
 def _category(owner: str, scene: Scene, object_categories: dict[str, str]) -> str:
@@ -63,7 +72,9 @@ class EgoCamera:
     """Renders views of one compiled scene (keep one per scene: the GL context is reused)."""
 
     def __init__(self, scene: Scene, object_categories: dict[str, str] | None = None,
-                 spec: AgentSpec = AgentSpec(), size: int = WIDTH) -> None:
+                 spec: AgentSpec = AgentSpec(), size: int = WIDTH,
+                 labels: tuple[str, ...] | None = None) -> None:
+        """``labels``: the category table to index (default: this scene's own categories)."""
         self.scene, self.spec = scene, spec
         m = scene.model
         m.vis.global_.fovy = FOV_DEG
@@ -72,7 +83,7 @@ class EgoCamera:
         self.instances = tuple(sorted(set(scene.geom_owner)))
         inst_of_geom = np.array([self.instances.index(o) for o in scene.geom_owner], np.int16)
         cats = object_categories or {}
-        self.categories = category_labels(scene, cats)
+        self.categories = labels or category_labels(scene, cats)
         cat_of_geom = np.array([self.categories.index(_category(o, scene, cats))
                                 for o in scene.geom_owner], np.int16)
         # lookup by geom id, with a slot for "no geom" (-1 -> last)

@@ -1,0 +1,1 @@
+"""The dataset on disk: sharded Parquet rows and HDF5 media."""

@@ -1,0 +1,101 @@
+"""Writing episodes: one Parquet file of rows and one HDF5 file of arrays per shard.
+
+``DATASET/data/{split}-{i:05d}-of-{n:05d}.parquet``: one row per episode (ids, split, room, zone,
+object, poses, spawn, expert actions and path, metrics, the seed, where its arrays are).
+``DATASET/media/{split}-{i:05d}-of-{n:05d}.h5``: per episode, chunked and gzip-compressed one
+episode per chunk: ``audio`` (N, 2, T) float32 (ear pressure / 20 Pa, see
+:mod:`fallgen.audio.mix`), ``rgb`` (N, 300, 300, 3) uint8, ``depth`` (N, 300, 300) float16
+metres, ``instance`` and ``category`` (N, 300, 300) int16, and ``occupancy/{row}`` (nx, ny) uint8
+per episode (rooms differ in size); with trajectory frames, ``frames/{row}/rgb`` etc.
+
+Files are written under a temporary name and renamed when complete (the media first, then the
+rows), without timestamps, so a shard's bytes depend only on its episodes.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from fallgen.nav.agent import ACTIONS
+
+GZIP = 4
+
+
+def shard_name(split: str, i: int, n: int) -> str:
+    return f"{split}-{i:05d}-of-{n:05d}"
+
+
+def _dataset(h5: h5py.Group, name: str, data: np.ndarray) -> None:
+    chunks = (1,) + data.shape[1:] if data.ndim > 1 and data.shape[0] > 0 else None
+    h5.create_dataset(name, data=data, chunks=chunks, compression="gzip",
+                      compression_opts=GZIP, shuffle=True, track_times=False)
+
+
+def row_of(ep, split: str, media: str, index: int, root_seed: int, attempts: int) -> dict:
+    e = ep.event
+    plan = ep.expert.plan
+    return {
+        "episode_id": ep.episode_id, "split": split, "event_id": e.event_id,
+        "room_variant": e.room_variant, "room_kind": e.room_kind, "zone": e.zone,
+        "zone_kind": e.zone_kind, "category": e.target.category, "variant": e.target.variant,
+        "material": e.target.material, "audio_material": e.audio_material,
+        "scale": e.target.scale, "mass_kg": e.mass_kg,
+        "start_pos": list(e.start_pos), "start_quat": list(e.start_quat),
+        "settle_pos": list(e.settle_pos), "settle_quat": list(e.settle_quat),
+        "settle_time_s": e.settle_time_s, "contacts": len(e.contacts),
+        "spawn_x": ep.spawn.x, "spawn_y": ep.spawn.y, "spawn_heading": ep.spawn.heading,
+        "spawn_yaw_rad": ep.spawn.yaw_rad, "spawn_sees_object": ep.spawn_sees_object,
+        "expert_actions": list(plan.actions), "expert_path_m": plan.path_m,
+        "shortest_path_m": ep.expert.shortest_m, "fewest_actions": ep.expert.fewest_actions,
+        "expert_spl": ep.expert_spl, "expert_sna": ep.expert_sna,
+        "goal_x": plan.goal.x, "goal_y": plan.goal.y, "goal_heading": plan.goal.heading,
+        "goal_tilt_deg": plan.goal.tilt_deg,
+        "target_cell": list(ep.target_cell), "grid_resolution_m": ep.grid.resolution,
+        "audio_gain": ep.audio.gain, "sample_rate": ep.audio.sample_rate,
+        "instance_labels": json.dumps(list(ep.view.instances)),
+        "root_seed": root_seed, "event_attempts": attempts,
+        "media_file": media, "media_index": index,
+    }
+
+
+def write_shard(root: Path, split: str, i: int, n: int, episodes: list, rows: list[dict],
+                category_labels: tuple[str, ...]) -> tuple[Path, Path]:
+    """Write one shard (media, then rows), atomically."""
+    name = shard_name(split, i, n)
+    media = root / "media" / f"{name}.h5"
+    data = root / "data" / f"{name}.parquet"
+    media.parent.mkdir(parents=True, exist_ok=True)
+    data.parent.mkdir(parents=True, exist_ok=True)
+    tmp = media.with_name(media.name + ".tmp")
+    with h5py.File(tmp, "w", track_order=False) as h5:
+        h5.attrs["actions"] = json.dumps(ACTIONS)
+        h5.attrs["category_labels"] = json.dumps(list(category_labels))
+        if episodes:
+            _dataset(h5, "audio", np.stack([ep.audio.audio for ep in episodes]))
+            _dataset(h5, "rgb", np.stack([ep.view.rgb for ep in episodes]))
+            _dataset(h5, "depth", np.stack([ep.view.depth for ep in episodes]).astype(np.float16))
+            _dataset(h5, "instance", np.stack([ep.view.instance for ep in episodes]))
+            _dataset(h5, "category", np.stack([ep.view.category for ep in episodes]))
+            occ = h5.create_group("occupancy", track_order=False)
+            for k, ep in enumerate(episodes):
+                _dataset(occ, str(k), ep.grid.occupied.astype(np.uint8)[None])
+            if any(ep.frames for ep in episodes):
+                fr = h5.create_group("frames", track_order=False)
+                for k, ep in enumerate(episodes):
+                    g = fr.create_group(str(k), track_order=False)
+                    _dataset(g, "rgb", np.stack([v.rgb for v in ep.frames]))
+                    _dataset(g, "depth", np.stack([v.depth for v in ep.frames]).astype(np.float16))
+                    _dataset(g, "instance", np.stack([v.instance for v in ep.frames]))
+    os.replace(tmp, media)
+    table = pa.Table.from_pylist(rows) if rows else pa.table({"episode_id": pa.array([], pa.int64())})
+    tmp = data.with_name(data.name + ".tmp")
+    pq.write_table(table, tmp, compression="zstd")
+    os.replace(tmp, data)
+    return data, media

@@ -1,0 +1,164 @@
+"""The generation phase: rehearsed fall events -> episodes, written shard by shard.
+
+Shards are the unit of work and of resumption: ``{split}-{i:05d}-of-{n:05d}`` holds the split's
+episodes ``i * per_shard ..`` (in episode-id order). A shard whose Parquet file exists is done
+and is not made again; workers take whole shards, so output does not depend on the worker count.
+
+An episode whose event cannot be used (:class:`~fallgen.pipeline.episode.Skip`: the replay with
+the agent diverged, no free spawn, no reachable pose sees the object) takes the next event of
+its split's pool, in a fixed order, up to ``MAX_EVENT_ATTEMPTS`` times; the row records the event
+used and the attempts, and the skip reasons are counted.
+"""
+
+from __future__ import annotations
+
+import glob
+import multiprocessing
+import os
+from collections import Counter
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from fallgen.audio.hrtf import load_sofa, spherical_head
+from fallgen.audio.mix import Binaural
+from fallgen.audio.room import RirSettings
+from fallgen.config import SPLITS, BuildConfig
+from fallgen.dataset.writer import row_of, shard_name, write_shard
+from fallgen.physics.events import FallEvent
+from fallgen.physics.rehearse import read_events, rehearsal_dir
+from fallgen.pipeline.episode import EpisodeMaker, Skip
+from fallgen.pipeline.plan import PlannedEpisode, plan
+from fallgen.world.library import World, load_world
+
+MAX_EVENT_ATTEMPTS = 10
+
+
+@dataclass
+class ShardResult:
+    name: str
+    episodes: int
+    skips: Counter = field(default_factory=Counter)
+    timings_s: Counter = field(default_factory=Counter)
+    skipped_shard: bool = False  # already done
+
+
+def load_events(cfg: BuildConfig, out: Path | None = None) -> list[FallEvent]:
+    files = sorted(glob.glob(str(rehearsal_dir(cfg, out) / "*.parquet")))
+    if not files:
+        raise FileNotFoundError(f"no rehearsal files in {rehearsal_dir(cfg, out)}: run "
+                                "`fallgen rehearse` first")
+    events = [e for f in files for e in read_events(f)]
+    return sorted(events, key=lambda e: e.event_id)
+
+
+@dataclass(frozen=True)
+class ShardJob:
+    split: str
+    index: int
+    count: int
+    episodes: tuple[PlannedEpisode, ...]
+
+
+def shard_jobs(planned: list[PlannedEpisode], per_shard: int) -> list[ShardJob]:
+    jobs = []
+    for split in SPLITS:
+        eps = [p for p in planned if p.split == split]
+        n = max(1, -(-len(eps) // per_shard)) if eps else 0
+        for i in range(n):
+            jobs.append(ShardJob(split, i, n, tuple(eps[i * per_shard:(i + 1) * per_shard])))
+    return jobs
+
+
+def _maker(world: World, cfg: BuildConfig) -> EpisodeMaker:
+    g = cfg.generate
+    hrtf = load_sofa(g.hrtf) if g.hrtf else spherical_head()
+    return EpisodeMaker(world, Binaural(hrtf),
+                        rir=RirSettings(g.image_source_order, 44100, g.audio_s))
+
+
+def make_shard(world: World, maker: EpisodeMaker, cfg: BuildConfig, job: ShardJob,
+               events: dict[str, FallEvent], pools: dict[str, list[str]], out: Path
+               ) -> ShardResult:
+    name = shard_name(job.split, job.index, job.count)
+    res = ShardResult(name, 0)
+    if (out / "data" / f"{name}.parquet").exists():
+        res.skipped_shard = True
+        res.episodes = len(job.episodes)
+        return res
+    episodes, rows = [], []
+    for p in job.episodes:
+        pool = pools[p.split]
+        first = pool.index(p.event_id)
+        for attempt in range(min(MAX_EVENT_ATTEMPTS, len(pool))):
+            ev = events[pool[(first + attempt) % len(pool)]]
+            try:
+                ep = maker.make(p.episode_id, ev, cfg.root_seed, cfg.generate.frames)
+            except Skip as s:
+                res.skips[s.reason] += 1
+                continue
+            rows.append(row_of(ep, p.split, f"media/{name}.h5", len(episodes), cfg.root_seed,
+                               attempt + 1))
+            episodes.append(ep)
+            res.timings_s.update(ep.timings_s)
+            break
+        else:
+            res.skips["episode_dropped"] += 1
+    write_shard(out, job.split, job.index, job.count, episodes, rows, maker.labels)
+    res.episodes = len(episodes)
+    return res
+
+
+_STATE: dict = {}
+
+
+def _init(root: str, cfg: BuildConfig, out: str) -> None:
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    world = load_world(root)
+    events = load_events(cfg, Path(out))
+    _STATE.update(world=world, maker=_maker(world, cfg), cfg=cfg, out=Path(out),
+                  events={e.event_id: e for e in events})
+
+
+def _work(args: tuple[ShardJob, dict[str, list[str]]]) -> ShardResult:
+    job, pools = args
+    s = _STATE
+    return make_shard(s["world"], s["maker"], s["cfg"], job, s["events"], pools, s["out"])
+
+
+def generate(world: World, cfg: BuildConfig, out: Path | None = None, workers: int = 1,
+             progress: Callable[[ShardResult], None] | None = None) -> list[ShardResult]:
+    """Make every shard of the build that is not done yet; returns per-shard results."""
+    out = out or cfg.out
+    events = load_events(cfg, out)
+    planned = plan(events, cfg.generate.episodes, cfg.root_seed)
+    pools: dict[str, list[str]] = {}
+    for p in planned:
+        pool = pools.setdefault(p.split, [])
+        if p.event_id not in pool:
+            pool.append(p.event_id)
+    jobs = shard_jobs(planned, cfg.generate.episodes_per_shard)
+    results: list[ShardResult] = []
+    if workers <= 1:
+        maker = _maker(world, cfg)
+        by_id = {e.event_id: e for e in events}
+        for job in jobs:
+            r = make_shard(world, maker, cfg, job, by_id, pools, out)
+            results.append(r)
+            if progress:
+                progress(r)
+    else:
+        # spawned (not forked) workers: a forked child of a process that has made a GL
+        # context hangs, and spawned ones start with fallgen's single-threaded BLAS
+        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
+                                 initializer=_init,
+                                 initargs=(str(world.root), cfg, str(out))) as ex:
+            for r in ex.map(_work, [(j, pools) for j in jobs]):
+                results.append(r)
+                if progress:
+                    progress(r)
+    return results
+
+
+__all__ = ["generate", "shard_jobs", "make_shard", "load_events"]
