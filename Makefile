@@ -23,7 +23,8 @@ demo: setup
 	$(FALLGEN) objects show -o demo/objects.png
 	$(FALLGEN) rehearse --config configs/demo.toml
 	$(FALLGEN) sounds demo/rehearsal/kitchen_galley-l1-m1.parquet -o demo/sounds --limit 3 --binaural
-	@echo "demo: room plans in demo/rooms/, objects in demo/objects.png, fall events in demo/rehearsal/, fall sounds in demo/sounds/ (dry: WAV in Pa at 1 m; *.binaural.wav: heard at the room centre, pressure / 20 Pa; spectrograms), MJCF in demo/ (python -m mujoco.viewer --mjcf=demo/kitchen_galley-l1-m1.xml)"
+	$(FALLGEN) generate --config configs/demo.toml
+	@echo "demo: room plans in demo/rooms/, objects in demo/objects.png, fall events in demo/rehearsal/, fall sounds in demo/sounds/ (dry: WAV in Pa at 1 m; *.binaural.wav: heard at the room centre, pressure / 20 Pa; spectrograms), 8 episodes in demo/data (Parquet) + demo/media (HDF5), MJCF in demo/ (python -m mujoco.viewer --mjcf=demo/kitchen_galley-l1-m1.xml)"
 
 test: setup
 	$(PY) -m pytest -q -n 2
@@ -55,7 +56,8 @@ dataset: rehearse generate
 
 smoke: setup
 	$(FALLGEN) rehearse --config configs/smoke.toml --workers $(WORKERS)
-	@echo "smoke: generation (issue 6) and validation (issue 7) are not built yet"
+	$(FALLGEN) generate --config configs/smoke.toml --workers $(WORKERS)
+	@echo "smoke: validation (issue 7) is not built yet"
 
 lint: setup
 	$(PY) -m ruff check src tests || true
