@@ -42,6 +42,7 @@ bench: setup
 	$(PY) bench/room_bench.py \
 		$$(sed -n 's/^pyroomacoustics=/--pyroomacoustics /p' build/peers-room.env) \
 		| tee build/bench-room.json
+	$(PY) bench/generate_bench.py | tee build/bench-generate.json
 
 assets: setup
 	$(FALLGEN) assets modes --workers $(WORKERS)

@@ -110,3 +110,13 @@ def test_object_on_the_left_is_louder_and_earlier_in_the_left_ear(maker, episode
     assert (w[0] ** 2).sum() > 2 * (w[1] ** 2).sum()
     onset = [int(np.argmax(np.abs(w[e]) > 0.2 * np.abs(w[e]).max())) for e in (0, 1)]
     assert onset[0] < onset[1]
+
+
+def test_trajectory_frames_follow_the_expert(maker, events, episodes):
+    ep = episodes[1]
+    i = next(k for k, e in enumerate(events) if e is ep.event)
+    full = maker.make(ep.episode_id, events[i], 11, frames="trajectory")
+    assert len(full.frames) == len(full.expert.plan.actions) + 1
+    assert np.array_equal(full.frames[0].rgb, full.view.rgb)  # step 0 is the first view
+    last = full.frames[-1]
+    assert last.pixels_of("obj:target") >= VISIBLE_PIXELS  # the final view sees the object

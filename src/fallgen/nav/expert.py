@@ -64,7 +64,7 @@ def tilt_steps(pose: Pose, target, spec: AgentSpec) -> int | None:
 
 def _search(start: Pose, grid: OccupancyGrid, target, spec: AgentSpec, move_cost: int,
             turn_cost: int, line_of_sight: Callable[[Pose], bool],
-            visible: Callable[[Pose], bool]) -> tuple[Plan, int]:
+            visible: Callable[[Pose], bool], max_view_m: float) -> tuple[Plan, int]:
     nbx = int(math.ceil(grid.shape[0] * grid.resolution / BIN_M)) + 1
     nby = int(math.ceil(grid.shape[1] * grid.resolution / BIN_M)) + 1
     size = nbx * nby * HEADINGS
@@ -112,7 +112,8 @@ def _search(start: Pose, grid: OccupancyGrid, target, spec: AgentSpec, move_cost
         dx, dy = target[0] - px[states], target[1] - py[states]
         dist = np.hypot(dx, dy)
         bearing = (np.degrees(np.arctan2(dy, dx)) - TURN_DEG * k + 180) % 360 - 180
-        cand = np.nonzero((dist <= SUCCESS_DISTANCE_M - 0.1)
+        eye = np.hypot(dist, target[2] - spec.camera_height_m)  # camera to object
+        cand = np.nonzero((dist <= SUCCESS_DISTANCE_M - 0.1) & (eye <= max_view_m)
                           & (np.abs(bearing) <= FOV_DEG / 2 - MARGIN_DEG))[0]
         for i in cand:
             s = int(states[i])
@@ -167,9 +168,21 @@ class Expert:
 
 
 def expert(start: Pose, grid: OccupancyGrid, target, line_of_sight: Callable[[Pose], bool],
-           visible: Callable[[Pose], bool], spec: AgentSpec = AgentSpec()) -> Expert:
+           visible: Callable[[Pose], bool], spec: AgentSpec = AgentSpec(),
+           max_view_m: float = math.inf) -> Expert:
     """Plan the expert's action sequence from ``start`` to a pose that sees ``target`` (the
-    object's centre, room frame), and the optimum references of SPL and SNA."""
-    plan, _ = _search(start, grid, target, spec, 1000, 1, line_of_sight, visible)
-    fewest, _ = _search(start, grid, target, spec, 1, 1, line_of_sight, visible)
+    object's centre, room frame), and the optimum references of SPL and SNA. Poses farther
+    than ``max_view_m`` from the object (camera to centre) are not tried: a small object there
+    covers too few pixels to be seen (see :func:`max_view_distance`)."""
+    plan, _ = _search(start, grid, target, spec, 1000, 1, line_of_sight, visible, max_view_m)
+    fewest, _ = _search(start, grid, target, spec, 1, 1, line_of_sight, visible, max_view_m)
     return Expert(plan, plan.path_m, min(len(fewest.actions), len(plan.actions)))
+
+
+def max_view_distance(extents_m, pixels: int, image_px: int = 300) -> float:
+    """Distance beyond which an object with bounding-box ``extents_m`` covers fewer than
+    ``pixels`` pixels of a ``FOV_DEG`` camera, ``image_px`` wide, even seen broadside (its two
+    largest extents as a rectangle, small-angle projection)."""
+    e = np.sort(np.asarray(extents_m, float))[::-1]
+    rad_per_px = math.radians(FOV_DEG) / image_px
+    return float(math.sqrt(e[0] * e[1] / pixels) / rad_per_px)

@@ -36,7 +36,7 @@ from fallgen.audio.fall import FallRenderer
 from fallgen.audio.mix import Binaural, BinauralClip, Listener
 from fallgen.audio.room import RirSettings, RoomAcoustics
 from fallgen.nav.agent import HEADINGS, VISIBLE_PIXELS, AgentSpec, Pose, run
-from fallgen.nav.expert import Expert, NoPath, expert
+from fallgen.nav.expert import Expert, NoPath, expert, max_view_distance
 from fallgen.nav.occupancy import OccupancyGrid, occupancy
 from fallgen.physics.drop import _instance, replay
 from fallgen.physics.events import FallEvent
@@ -153,8 +153,10 @@ class EpisodeMaker:
                 return camera.pixels_of(data, p) >= VISIBLE_PIXELS
 
             try:
-                ex = expert(spawn, grid, centre, lambda p: _line_of_sight(scene, data, p, points,
-                                                                           spec), visible, spec)
+                lo, hi = _target_box(scene, data)
+                ex = expert(spawn, grid, centre,
+                            lambda p: _line_of_sight(scene, data, p, points, spec), visible,
+                            spec, max_view_distance(hi - lo, VISIBLE_PIXELS))
             except NoPath as e:
                 raise Skip("no_path", str(e)) from None
             lap("planning")
