@@ -187,6 +187,23 @@ def generate(
             f"{k} {v:.1f} s ({v / total:.0%})" for k, v in timings.most_common()))
 
 
+@app.command()
+def validate(
+    dataset: Annotated[Path, typer.Argument(help="A dataset directory (what generate wrote).")],
+) -> None:
+    """Check a dataset: checksums vs the manifest, shards, schemas, counts, media shapes and
+    values, split disjointness, fall events. Exit 1 with the list of problems."""
+    from fallgen.dataset.validate import validate as check
+
+    problems = check(dataset)
+    for p in problems:
+        console.print(p, markup=False, soft_wrap=True)
+    if problems:
+        console.print(f"{len(problems)} problem(s) in {dataset}")
+        raise typer.Exit(1)
+    console.print(f"{dataset}: valid")
+
+
 # --- rooms --------------------------------------------------------------------------------------
 
 @rooms_app.command("list")

@@ -104,3 +104,64 @@ def test_resume_redoes_only_missing_shards(built):
     assert _run("generate", "-c", str(cfg)) == 0
     assert victim.exists() and keep.stat().st_mtime_ns == mtime
     assert _digest(base / "one") == before
+
+
+def test_manifest_reader_round_trip(built):
+    import json
+
+    import h5py
+    import numpy as np
+
+    import fallgen.dataset
+
+    base, _ = built
+    root = base / "one"
+    m = json.loads((root / "manifest.json").read_text())
+    assert set(m["versions"]) >= {"fallgen", "mujoco", "numpy"} and m["root_seed"] == 7
+    assert sum(m["episodes"].values()) == len(fallgen.dataset.open(root))
+    assert all(k.startswith(("data/", "media/", "rehearsal/")) for k in m["files"])
+    ds = fallgen.dataset.open(root)
+    assert ds.splits == ["train", "validation", "test"]
+    eps = list(ds.episodes("train"))
+    assert [e["episode_id"] for e in eps] == sorted(e["episode_id"] for e in eps)
+    ep = eps[0]
+    assert ep["audio"].shape == (2, 44100) and ep["audio"].dtype == np.float32
+    assert ep["rgb"].shape == (300, 300, 3) and ep["depth"].dtype == np.float32
+    assert ep["occupancy"].ndim == 2 and ep["expert_actions"][-1] == 5
+    with h5py.File(root / ep["media_file"]) as f:  # the reader returns what was written
+        assert np.array_equal(f["audio"][ep["media_index"]], ep["audio"])
+    assert ds.get(ep["episode_id"])["event_id"] == ep["event_id"]
+
+
+@pytest.mark.parametrize("damage", ["flip_parquet_byte", "truncate_h5", "missing_shard",
+                                    "manifest_count", "extra_file"])
+def test_validate_catches_corruption(built, tmp_path, damage):
+    import json
+
+    base, _ = built
+    root = tmp_path / "ds"
+    shutil.copytree(base / "one", root)
+    assert _run("validate", str(root)) == 0
+    if damage == "flip_parquet_byte":
+        p = root / "data" / "train-00000-of-00002.parquet"
+        b = bytearray(p.read_bytes())
+        b[len(b) // 2] ^= 0x40
+        p.write_bytes(bytes(b))
+    elif damage == "truncate_h5":
+        p = root / "media" / "train-00001-of-00002.h5"
+        p.write_bytes(p.read_bytes()[: p.stat().st_size // 2])
+    elif damage == "missing_shard":
+        (root / "data" / "validation-00000-of-00001.parquet").unlink()
+    elif damage == "manifest_count":
+        m = json.loads((root / "manifest.json").read_text())
+        m["episodes"]["train"] += 1
+        (root / "manifest.json").write_text(json.dumps(m))
+    elif damage == "extra_file":
+        shutil.copy(root / "data" / "test-00000-of-00001.parquet",
+                    root / "data" / "test-00001-of-00002.parquet")
+    from fallgen.dataset.validate import validate
+
+    problems = validate(root)
+    assert problems, damage
+    assert all("\n" not in p for p in problems)
+    assert _run("validate", str(root)) == 1

@@ -12,6 +12,7 @@ used and the attempts, and the skip reasons are counted.
 
 from __future__ import annotations
 
+import dataclasses
 import glob
 import multiprocessing
 import os
@@ -25,6 +26,7 @@ from fallgen.audio.hrtf import load_sofa, spherical_head
 from fallgen.audio.mix import Binaural
 from fallgen.audio.room import RirSettings
 from fallgen.config import SPLITS, BuildConfig
+from fallgen.dataset.manifest import write_manifest
 from fallgen.dataset.writer import row_of, shard_name, write_shard
 from fallgen.physics.events import FallEvent
 from fallgen.physics.rehearse import read_events, rehearsal_dir
@@ -129,7 +131,8 @@ def _work(args: tuple[ShardJob, dict[str, list[str]]]) -> ShardResult:
 
 def generate(world: World, cfg: BuildConfig, out: Path | None = None, workers: int = 1,
              progress: Callable[[ShardResult], None] | None = None) -> list[ShardResult]:
-    """Make every shard of the build that is not done yet; returns per-shard results."""
+    """Make every shard of the build that is not done yet, then (re)write the manifest;
+    returns per-shard results."""
     out = out or cfg.out
     events = load_events(cfg, out)
     planned = plan(events, cfg.generate.episodes, cfg.root_seed)
@@ -158,6 +161,9 @@ def generate(world: World, cfg: BuildConfig, out: Path | None = None, workers: i
                 results.append(r)
                 if progress:
                     progress(r)
+    write_manifest(out, cfg.file.read_text(), cfg.root_seed,
+                   {"generate": dataclasses.asdict(cfg.generate),
+                    "rehearse": dataclasses.asdict(cfg.rehearse)})
     return results
 
 

@@ -1,0 +1,150 @@
+"""``fallgen validate DATASET``: everything a user should be able to trust, checked.
+
+Checksums and sizes against the manifest (a flipped byte, a truncated or missing file, an extra
+shard), the shard set (every ``i-of-n`` present), Parquet schemas and row counts per split, the
+HDF5 media (opens, shapes, dtypes, audio length and rate, finite values, one media row per
+episode), episode ids unique and contiguous, no fall event in two of train / validation / test,
+and every episode's fall event present in the rehearsal files. Returns a list of problems, each
+one line naming the file.
+"""
+
+from __future__ import annotations
+
+import glob
+import json
+import re
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pyarrow.parquet as pq
+
+from fallgen.config import SPLITS
+from fallgen.dataset.manifest import MANIFEST, listed_files, sha256
+
+REQUIRED = ("episode_id", "split", "event_id", "room_variant", "room_kind", "category",
+            "material", "settle_pos", "spawn_x", "spawn_y", "spawn_heading", "expert_actions",
+            "media_file", "media_index", "audio_gain", "sample_rate")
+SHARD = re.compile(r"^(?P<split>[a-z_]+)-(?P<i>\d{5})-of-(?P<n>\d{5})\.(parquet|h5)$")
+
+
+def validate(root: str | Path) -> list[str]:
+    root = Path(root)
+    problems: list[str] = []
+    man_path = root / MANIFEST
+    try:
+        manifest = json.loads(man_path.read_text())
+        files = manifest["files"]
+        audio_s = float(manifest["settings"]["generate"]["audio_s"])
+    except FileNotFoundError:
+        return [f"{man_path}: missing (the build did not finish)"]
+    except (ValueError, KeyError, TypeError) as e:
+        return [f"{man_path}: unreadable manifest ({e})"]
+
+    # files vs manifest
+    present = {str(p.relative_to(root)) for p in listed_files(root)}
+    for rel in sorted(set(files) - present):
+        problems.append(f"{root / rel}: listed in the manifest but missing")
+    for rel in sorted(present - set(files)):
+        problems.append(f"{root / rel}: not in the manifest")
+    for rel in sorted(set(files) & present):
+        p = root / rel
+        if p.stat().st_size != files[rel]["bytes"]:
+            problems.append(f"{p}: {p.stat().st_size} bytes, manifest says {files[rel]['bytes']}")
+        elif sha256(p) != files[rel]["sha256"]:
+            problems.append(f"{p}: checksum differs from the manifest")
+
+    # shard sets
+    shards: dict[tuple[str, str], set[int]] = {}
+    for rel in present:
+        m = SHARD.match(Path(rel).name)
+        if rel.startswith(("data/", "media/")):
+            if not m:
+                problems.append(f"{root / rel}: not a shard name")
+                continue
+            shards.setdefault((rel.split("/")[0], m["split"] + "/" + m["n"]), set()).add(int(m["i"]))
+    for (d, key), got in sorted(shards.items()):
+        n = int(key.split("/")[1])
+        for i in sorted(set(range(n)) - got):
+            problems.append(f"{root / d}/{key.split('/')[0]}-{i:05d}-of-{n:05d}: shard missing")
+
+    # rows, media, events
+    events = set()
+    for f in sorted(glob.glob(str(root / "rehearsal" / "*.parquet"))):
+        try:
+            events |= set(pq.read_table(f, columns=["event_id"]).column(0).to_pylist())
+        except Exception as e:  # a broken Parquet file raises several types
+            problems.append(f"{f}: unreadable ({type(e).__name__})")
+    ids, by_split, per_split = [], {}, {}
+    for p in sorted((root / "data").glob("*.parquet")):
+        try:
+            t = pq.read_table(p)
+        except Exception as e:
+            problems.append(f"{p}: unreadable Parquet ({type(e).__name__})")
+            continue
+        missing = [c for c in REQUIRED if c not in t.column_names]
+        if missing and t.num_rows:
+            problems.append(f"{p}: missing columns {', '.join(missing)}")
+            continue
+        rows = t.to_pylist()
+        split = p.name.split("-")[0]
+        per_split[split] = per_split.get(split, 0) + len(rows)
+        media: dict[str, list[dict]] = {}
+        for r in rows:
+            ids.append(r["episode_id"])
+            if r["split"] != split:
+                problems.append(f"{p}: episode {r['episode_id']} has split {r['split']!r}")
+            by_split.setdefault(r["split"], set()).add(r["event_id"])
+            if events and r["event_id"] not in events:
+                problems.append(f"{p}: episode {r['episode_id']}: fall event {r['event_id']} "
+                                "not in rehearsal/")
+            media.setdefault(r["media_file"], []).append(r)
+        for rel, rs in media.items():
+            problems += _check_media(root / rel, rs, audio_s)
+    counts = manifest.get("episodes", {})
+    for split in sorted(set(counts) | set(per_split)):
+        if counts.get(split, 0) != per_split.get(split, 0):
+            problems.append(f"{man_path}: {split} has {per_split.get(split, 0)} episodes, "
+                            f"manifest says {counts.get(split, 0)}")
+    if sorted(ids) != list(range(len(ids))):
+        problems.append(f"{root / 'data'}: episode ids are not unique and contiguous from 0")
+    main = [s for s in SPLITS if s in by_split]
+    for a in range(len(main)):
+        for b in range(a + 1, len(main)):
+            both = by_split[main[a]] & by_split[main[b]]
+            if both:
+                problems.append(f"{root / 'data'}: {len(both)} fall events in both {main[a]} "
+                                f"and {main[b]} (e.g. {sorted(both)[0]})")
+    return problems
+
+
+def _check_media(path: Path, rows: list[dict], audio_s: float) -> list[str]:
+    out: list[str] = []
+    try:
+        with h5py.File(path, "r") as f:
+            n = len(rows)
+            rate = rows[0]["sample_rate"]
+            want = {"audio": ((n, 2, int(round(audio_s * rate))), np.float32),
+                    "rgb": ((n, 300, 300, 3), np.uint8), "depth": ((n, 300, 300), np.float16),
+                    "instance": ((n, 300, 300), np.int16), "category": ((n, 300, 300), np.int16)}
+            for name, (shape, dtype) in want.items():
+                if name not in f:
+                    out.append(f"{path}: dataset {name} missing")
+                    continue
+                d = f[name]
+                if d.shape != shape or d.dtype != dtype:
+                    out.append(f"{path}: {name} is {d.shape} {d.dtype}, expected {shape} "
+                               f"{np.dtype(dtype)}")
+                    continue
+                if name in ("audio", "depth"):
+                    for k in range(n):
+                        if not np.isfinite(d[k]).all():
+                            out.append(f"{path}: {name}[{k}] has non-finite values")
+            if sorted(r["media_index"] for r in rows) != list(range(n)):
+                out.append(f"{path}: media rows do not match the episodes that point to it")
+            occ = f.get("occupancy")
+            if occ is None or len(occ) != n:
+                out.append(f"{path}: occupancy maps missing")
+    except (OSError, KeyError, ValueError) as e:
+        out.append(f"{path}: unreadable HDF5 ({type(e).__name__}: {str(e)[:80]})")
+    return out
