@@ -22,7 +22,7 @@ import numpy as np
 from scipy.signal import fftconvolve, oaconvolve
 
 from fallgen.audio.hrtf import Hrtf
-from fallgen.audio.room import (KERNEL, RirSettings, RoomAcoustics, arrivals, completeness_time,
+from fallgen.audio.room import (KERNEL, RirSettings, RoomAcoustics, early_arrivals,
                                 fitted_late_level, late_reverb, render_arrivals)
 
 FULL_SCALE_PA = 20.0
@@ -84,8 +84,7 @@ class Binaural:
         fs = settings.sample_rate
         # a contact on the floor or a wall lies on the boundary: move it 1 cm inside
         source = np.clip(np.asarray(source, float), 0.01, np.asarray(room.size_m) - 0.01)
-        t_c = completeness_time(room, source, listener.position, settings.max_order)
-        arr = arrivals(room, source, listener.position, settings.max_order, until_s=t_c)
+        arr, t_c = early_arrivals(room, source, listener.position, settings.max_order)
         idx = self.hrtf.nearest(arr.direction @ listener.axes())  # head-frame directions
         shifted = type(arr)(np.maximum(arr.delay_s - self.latency / fs, 0.0), arr.amplitude,
                             arr.direction)

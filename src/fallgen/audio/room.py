@@ -124,9 +124,7 @@ def image_sources(room: RoomAcoustics, source, max_order: int) -> ImageSources:
 def completeness_time(room: RoomAcoustics, source, listener, max_order: int) -> float:
     """Time (s) before which every arrival has order <= ``max_order``: the first arrival of
     order ``max_order + 1``."""
-    nxt = image_sources(room, source, max_order + 1)
-    d = np.linalg.norm(nxt.positions[nxt.order == max_order + 1] - np.asarray(listener), axis=1)
-    return float(d.min()) / room.c
+    return early_arrivals(room, source, listener, max_order)[1]
 
 
 def band_weights(freqs_hz: np.ndarray, bands_hz=OCTAVE_BANDS_HZ) -> np.ndarray:
@@ -155,7 +153,23 @@ class Arrivals:
 
 def arrivals(room: RoomAcoustics, source, listener, max_order: int,
              until_s: float | None = None) -> Arrivals:
-    im = image_sources(room, source, max_order)
+    return _arrivals(room, image_sources(room, source, max_order), listener, until_s)
+
+
+def early_arrivals(room: RoomAcoustics, source, listener, max_order: int
+                   ) -> tuple[Arrivals, float]:
+    """The arrivals before the completeness time, and that time (one image-source pass of
+    order ``max_order + 1`` serves both)."""
+    im = image_sources(room, source, max_order + 1)
+    nxt = im.order == max_order + 1
+    d = np.linalg.norm(im.positions[nxt] - np.asarray(listener, float), axis=1)
+    t_c = float(d.min()) / room.c
+    early = ImageSources(im.positions[~nxt], im.gains[~nxt], im.order[~nxt])
+    return _arrivals(room, early, listener, t_c), t_c
+
+
+def _arrivals(room: RoomAcoustics, im: ImageSources, listener, until_s: float | None
+              ) -> Arrivals:
     v = im.positions - np.asarray(listener, float)
     r = np.maximum(np.linalg.norm(v, axis=1), 1e-3)
     amp = im.gains / r[:, None] * np.exp(-0.5 * np.outer(r, room.air_absorption_per_m))
@@ -164,14 +178,14 @@ def arrivals(room: RoomAcoustics, source, listener, max_order: int,
     return Arrivals(t[keep], amp[keep], (v / r[:, None])[keep])
 
 
-def render_arrivals(arr: Arrivals, n_out: int, sample_rate: int,
-                    ear_spectra: np.ndarray | None = None, bands_hz=OCTAVE_BANDS_HZ
-                    ) -> np.ndarray:
+def render_arrivals(arr: Arrivals, n_out: int, sample_rate: int, ear_spectra: np.ndarray,
+                    bands_hz=OCTAVE_BANDS_HZ) -> np.ndarray:
     """(E, n_out) response: every arrival's band gains (as a spectrum through
-    :func:`band_weights`), exact fractional delay and, when given, ``ear_spectra`` (N, E,
-    KERNEL // 2 + 1: each arrival's HRTF per ear, its own delay included), as one KERNEL-long
-    zero-phase kernel per arrival and ear, added at its whole-sample delay."""
-    E = 1 if ear_spectra is None else ear_spectra.shape[1]
+    :func:`band_weights`), exact fractional delay and ``ear_spectra`` (N, E, KERNEL // 2 + 1:
+    each arrival's HRTF per ear, its own delay included), as one KERNEL-long zero-phase kernel
+    per arrival and ear, added at its whole-sample delay. (Omnidirectional responses:
+    :func:`render_omni`.)"""
+    E = ear_spectra.shape[1]
     out = np.zeros((E, n_out + KERNEL))
     if len(arr.delay_s) == 0:
         return out[:, KERNEL // 2:KERNEL // 2 + n_out]
@@ -183,7 +197,7 @@ def render_arrivals(arr: Arrivals, n_out: int, sample_rate: int,
     spec = (arr.amplitude @ W) * np.exp(-2j * np.pi * np.outer(frac, f) / sample_rate)  # (N, F)
     # centre the zero-phase kernel in its KERNEL samples
     spec = spec * np.exp(-2j * np.pi * f * (KERNEL // 2) / sample_rate)[None, :]
-    spec = spec[:, None, :] if ear_spectra is None else spec[:, None, :] * ear_spectra
+    spec = spec[:, None, :] * ear_spectra
     k = np.fft.irfft(spec, KERNEL, axis=-1)  # (N, E, KERNEL)
     ok = whole < n_out
     idx = whole[ok, None] + np.arange(KERNEL)[None, :]  # position in `out` (offset KERNEL/2)
@@ -291,7 +305,7 @@ def fitted_late_level(room: RoomAcoustics, arr: Arrivals, t_c: float, sample_rat
     rt = room.eyring_rt60()
     if sel.sum() < 10:
         return eyring_density(room, t_c) / sample_rate
-    e = (arr.amplitude[sel] ** 2).sum(0)  # energy in the window
+    e = band_energy(arr, t0, t_c)  # energy in the window
     # integral over the window of exp(-13.82 (t - t_c) / T)
     k = 13.82 / rt
     span = t_c - t0
@@ -316,8 +330,7 @@ def omni_rir(room: RoomAcoustics, source, listener, rng: np.random.Generator | N
     if not late:
         return render_omni(arrivals(room, source, listener, settings.max_order), n, fs,
                            room.bands_hz)
-    t_c = completeness_time(room, source, listener, settings.max_order)
-    arr = arrivals(room, source, listener, settings.max_order, until_s=t_c)
+    arr, t_c = early_arrivals(room, source, listener, settings.max_order)
     if rng is None:
         raise ValueError("the late reverb needs a generator")
     level = fitted_late_level(room, arr, t_c, fs)

@@ -51,10 +51,19 @@ class OccupancyGrid:
         return self.clearance_at(xy) >= radius_m
 
 
+#: The 8 corners of a unit box, as +-1 signs per axis.
+BOX_SIGNS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], float)
+
+
+def geom_box_corners(model: mujoco.MjModel, data: mujoco.MjData, g: int) -> np.ndarray:
+    """(8, 3) world corners of geom ``g``'s oriented bounding box."""
+    c, h = model.geom_aabb[g, :3], model.geom_aabb[g, 3:]
+    return data.geom_xpos[g] + (c + BOX_SIGNS * h) @ data.geom_xmat[g].reshape(3, 3).T
+
+
 def _footprints(scene: Scene, data: mujoco.MjData, low: float, high: float,
                 skip: tuple[str, ...]) -> list[np.ndarray]:
     m = scene.model
-    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], float)
     out = []
     for g in range(m.ngeom):
         owner = scene.geom_owner[g]
@@ -62,8 +71,7 @@ def _footprints(scene: Scene, data: mujoco.MjData, low: float, high: float,
             continue
         if m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0:
             continue  # visual-only geoms: their collision twins count
-        c, h = m.geom_aabb[g, :3], m.geom_aabb[g, 3:]
-        corners = data.geom_xpos[g] + (c + signs * h) @ data.geom_xmat[g].reshape(3, 3).T
+        corners = geom_box_corners(m, data, g)
         if corners[:, 2].max() < low or corners[:, 2].min() > high:
             continue
         xy = corners[:, :2]

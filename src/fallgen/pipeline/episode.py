@@ -25,6 +25,7 @@ and the root seed: not on workers, sharding or resume.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
@@ -37,7 +38,7 @@ from fallgen.audio.mix import Binaural, BinauralClip, Listener
 from fallgen.audio.room import RirSettings, RoomAcoustics
 from fallgen.nav.agent import HEADINGS, VISIBLE_PIXELS, AgentSpec, Pose, run
 from fallgen.nav.expert import Expert, NoPath, expert, max_view_distance
-from fallgen.nav.occupancy import OccupancyGrid, occupancy
+from fallgen.nav.occupancy import BOX_SIGNS, OccupancyGrid, geom_box_corners, occupancy
 from fallgen.physics.drop import _instance, replay
 from fallgen.physics.events import FallEvent
 from fallgen.vision.camera import EgoCamera, View, world_category_labels
@@ -124,8 +125,10 @@ class EpisodeMaker:
         camera = EgoCamera(scene, cats, spec, labels=self.labels)
         try:
             grid = occupancy(scene, data, band_high_m=spec.height_m)
-            centre = _target_centre(scene, data)
-            points = _target_points(scene, data)
+            lo, hi = _target_box(scene, data)
+            centre = (lo + hi) / 2
+            # where a line of sight may reach: the centre and the corners pulled 25 % inward
+            points = np.vstack([centre, centre + 0.75 * BOX_SIGNS * (hi - lo) / 2])
             lap("maps")
             drawn, sees = self._spawn(rng, grid, centre, camera, data)
             if spawn is None:
@@ -153,7 +156,6 @@ class EpisodeMaker:
                 return camera.pixels_of(data, p) >= VISIBLE_PIXELS
 
             try:
-                lo, hi = _target_box(scene, data)
                 ex = expert(spawn, grid, centre,
                             lambda p: _line_of_sight(scene, data, p, points, spec), visible,
                             spec, max_view_distance(hi - lo, VISIBLE_PIXELS))
@@ -201,32 +203,13 @@ def quat_angle_deg(a, b) -> float:
     return math.degrees(2 * math.acos(min(1.0, d)))
 
 
-def _target_points(scene, data) -> np.ndarray:
-    """(9, 3): the centre of the target's bounding box (world) and its corners pulled 25 %
-    toward the centre: the points a line of sight may reach."""
-    lo, hi = _target_box(scene, data)
-    c = (lo + hi) / 2
-    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], float)
-    return np.vstack([c, c + 0.75 * signs * (hi - lo) / 2])
-
-
-def _target_centre(scene, data) -> np.ndarray:
-    lo, hi = _target_box(scene, data)
-    return (lo + hi) / 2
-
-
 def _target_box(scene, data) -> tuple[np.ndarray, np.ndarray]:
-    """The target's world bounding box."""
+    """The target's world bounding box (over its geoms' oriented boxes)."""
     m = scene.model
     b = scene.object_body["target"]
-    geoms = [g for g in range(m.ngeom) if m.geom_bodyid[g] == b]
-    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
-    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], float)
-    for g in geoms:
-        c, h = m.geom_aabb[g, :3], m.geom_aabb[g, 3:]
-        pts = data.geom_xpos[g] + (c + signs * h) @ data.geom_xmat[g].reshape(3, 3).T
-        lo, hi = np.minimum(lo, pts.min(0)), np.maximum(hi, pts.max(0))
-    return lo, hi
+    pts = np.vstack([geom_box_corners(m, data, g) for g in range(m.ngeom)
+                     if m.geom_bodyid[g] == b])
+    return pts.min(0), pts.max(0)
 
 
 def _line_of_sight(scene, data, pose: Pose, points: np.ndarray, spec: AgentSpec) -> bool:
@@ -245,9 +228,7 @@ def _line_of_sight(scene, data, pose: Pose, points: np.ndarray, spec: AgentSpec)
 
 
 def _with_contacts(event: FallEvent, contacts) -> FallEvent:
-    from dataclasses import replace
-
-    return replace(event, contacts=tuple(contacts))
+    return dataclasses.replace(event, contacts=tuple(contacts))
 
 
 __all__ = ["Episode", "EpisodeMaker", "Skip", "ExpertFailure", "episode_rng",
