@@ -24,13 +24,16 @@ demo: setup
 	$(FALLGEN) rehearse --config configs/demo.toml
 	$(FALLGEN) sounds demo/rehearsal/kitchen_galley-l1-m1.parquet -o demo/sounds --limit 3 --binaural
 	$(FALLGEN) generate --config configs/demo.toml
-	@echo "demo: room plans in demo/rooms/, objects in demo/objects.png, fall events in demo/rehearsal/, fall sounds in demo/sounds/ (dry: WAV in Pa at 1 m; *.binaural.wav: heard at the room centre, pressure / 20 Pa; spectrograms), 8 episodes in demo/data (Parquet) + demo/media (HDF5), MJCF in demo/ (python -m mujoco.viewer --mjcf=demo/kitchen_galley-l1-m1.xml)"
+	$(FALLGEN) validate demo
+	$(FALLGEN) stats demo
+	$(FALLGEN) show demo 0 -o demo/episode-0.png --wav demo/episode-0.wav
+	@echo "demo: room plans in demo/rooms/, objects in demo/objects.png, fall events in demo/rehearsal/, fall sounds in demo/sounds/ (dry: WAV in Pa at 1 m; *.binaural.wav: heard at the room centre, pressure / 20 Pa; spectrograms), 8 episodes in demo/data (Parquet) + demo/media (HDF5) with demo/README.md (card) and demo/manifest.json, episode 0 drawn in demo/episode-0.png (+ .wav), MJCF in demo/ (python -m mujoco.viewer --mjcf=demo/kitchen_galley-l1-m1.xml)"
 
 test: setup
-	$(PY) -m pytest -q -n 2
+	$(PY) -m pytest -q -n 2 --dist loadgroup
 
 test-fast: setup
-	$(PY) -m pytest -q -n 2 -m "not slow"
+	$(PY) -m pytest -q -n 2 --dist loadgroup -m "not slow"
 
 bench: setup
 	@mkdir -p build

@@ -61,7 +61,7 @@ def main() -> None:
     t_make = time.perf_counter() - t0
     with tempfile.TemporaryDirectory() as d:
         t = time.perf_counter()
-        rows = [row_of(ep, "train", "media/x.h5", k, 1, 1) for k, ep in enumerate(made)]
+        rows = [row_of(ep, "train", "media/x.h5", k, 1) for k, ep in enumerate(made)]
         data, media = write_shard(Path(d), "train", 0, 1, made, rows, maker.labels)
         stages["writing"] = time.perf_counter() - t
         size = data.stat().st_size + media.stat().st_size

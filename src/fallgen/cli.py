@@ -178,7 +178,11 @@ def generate(
 
         run(world, cfg, out, workers=workers, progress=tick)
     dest = out or cfg.out
-    console.print(f"{made} episodes in {n_shards} shards -> {dest}/data, {dest}/media")
+    size = sum(p.stat().st_size for d in ("data", "media") for p in (dest / d).glob("*")
+               if p.is_file())
+    console.print(f"{made} episodes in {n_shards} shards -> {dest}/data, {dest}/media: "
+                  f"{size / 1e6:.1f} MB, {size / max(made, 1) / 1e3:.0f} kB per episode; "
+                  f"card {dest}/README.md, manifest {dest}/manifest.json")
     if skips:
         console.print("events skipped: " + ", ".join(f"{k} {v}" for k, v in skips.most_common()))
     total = sum(timings.values())
@@ -202,6 +206,87 @@ def validate(
         console.print(f"{len(problems)} problem(s) in {dataset}")
         raise typer.Exit(1)
     console.print(f"{dataset}: valid")
+
+
+def _open(dataset: Path):
+    import fallgen.dataset
+
+    try:
+        return fallgen.dataset.open(dataset)
+    except FileNotFoundError as e:
+        raise InputError(dataset, "data/", str(e).split(": ", 1)[-1]) from None
+
+
+@app.command()
+def show(
+    dataset: Annotated[Path, typer.Argument(help="A dataset directory.")],
+    episode: Annotated[int, typer.Argument(help="Episode id.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="PNG to write.")] = Path("episode.png"),
+    wav: Annotated[Optional[Path], typer.Option(help="Also write the binaural audio (stereo "
+                                                "float WAV, ear pressure / 20 Pa).")] = None,
+    data_dir: DataDir = None,
+) -> None:
+    """One picture of an episode: RGB, depth, segmentation, the room from above with the zone,
+    object, spawn and expert path, and both ears' spectrograms."""
+    from fallgen.dataset.show import show as draw
+
+    ds = _open(dataset)
+    try:
+        path = draw(ds, episode, _world(data_dir), out, wav)
+    except KeyError as e:
+        raise InputError(dataset, "EPISODE", str(e).strip("'\"")) from None
+    console.print(f"{path}" + (f", {wav}" if wav else ""))
+
+
+@app.command()
+def stats(
+    dataset: Annotated[Path, typer.Argument(help="A dataset directory.")],
+    json_out: Annotated[Optional[Path], typer.Option("--json", help="Also write the numbers "
+                                                     "as JSON.")] = None,
+) -> None:
+    """Counts by split, room kind, category, material and zone kind; expert lengths; audio
+    levels; and how the episodes' zone kinds compare with the rehearsed events'."""
+    import json
+
+    from fallgen.atomic import write_text
+    from fallgen.dataset.stats import stats as compute
+
+    s = compute(_open(dataset).root)
+    console.print(f"{dataset}: {s['episodes']} episodes in {s['room_variants']} room variants, "
+                  f"{s['dropped_episodes']} planned episodes dropped")
+    t = Table("split", *sorted({k for v in s["by_split"].values() for k in v}), "total")
+    kinds = t.columns[1:-1]
+    for split, by in s["by_split"].items():
+        t.add_row(split, *[str(by.get(str(c.header), 0)) for c in kinds], str(sum(by.values())))
+    console.print(t)
+    for key in ("category", "audio_material"):
+        c = s[f"by_{key}"]
+        console.print(f"{key} ({len(c)}): " + ", ".join(f"{k} {v}" for k, v in c.items()))
+    e = s["expert"]
+    console.print(f"expert: {e['actions']['mean']:.1f} actions on average (median "
+                  f"{e['actions']['p50']:.0f}, max {e['actions']['max']:.0f}), path "
+                  f"{e['path_m']['mean']:.2f} m on average; {e['episodes_that_look_up_or_down']}"
+                  " episodes look up or down")
+    for name, a in s["audio_db_spl"].items():
+        if "n" in a:
+            console.print(f"audio {name} dB SPL: " + ", ".join(
+                f"{q} {a[q]:.1f}" for q in ("min", "p5", "p50", "p95", "max")))
+    console.print("audio leq_125ms histogram (dB SPL: episodes): " + ", ".join(
+        f"{k}: {v}" for k, v in s["audio_db_spl"]["leq_125ms_histogram"].items()))
+    t = Table("zone kind", "rehearsed", "share of events", "share of episodes", "ratio",
+              "events skipped", "skip rate")
+    for k, b in s["bias"].items():
+        t.add_row(k, str(b["rehearsed_events"]), f"{b['rehearsed_share']:.1%}",
+                  f"{b['episode_share']:.1%}", "-" if b["ratio"] is None else f"{b['ratio']:.2f}",
+                  str(b["events_skipped"]),
+                  "-" if b["skip_rate"] is None else f"{b['skip_rate']:.0%}")
+    console.print(t)
+    console.print(f"skips: {s['skips_by_reason'] or 'none'}; episodes on a fallback event: "
+                  f"{s['episodes_on_a_fallback_event']}; spawns that already see the object: "
+                  f"{s['spawn_sees_object']}")
+    if json_out:
+        write_text(json_out, json.dumps(s, indent=1) + "\n")
+        console.print(f"{json_out}")
 
 
 # --- rooms --------------------------------------------------------------------------------------

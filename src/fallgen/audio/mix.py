@@ -60,6 +60,17 @@ class BinauralClip:
     def pressure_pa(self) -> np.ndarray:
         return self.audio.astype(float) * FULL_SCALE_PA / self.gain
 
+    def levels_db_spl(self, window_s: float = 0.125) -> tuple[float, float]:
+        """(peak, loudest ``window_s`` Leq) in dB SPL re 20 uPa, the louder ear of each; the
+        125 ms window is the sound level meter's 'fast' time constant."""
+        p = self.pressure_pa()
+        peak = float(np.abs(p).max())
+        n = max(1, min(p.shape[1], int(round(window_s * self.sample_rate))))
+        c = np.cumsum(np.pad(p * p, ((0, 0), (1, 0))), axis=1)
+        leq = float(((c[:, n:] - c[:, :-n]) / n).max())
+        return (20 * np.log10(max(peak, 1e-12) / 20e-6),
+                10 * np.log10(max(leq, 1e-24) / 4e-10))
+
 
 class Binaural:
     """Binaural rendering with one HRTF: its spectra on the arrival-kernel grid, its latency for

@@ -24,19 +24,27 @@ def write_wav(path: str | Path, pressure_pa: np.ndarray, sample_rate: int) -> Pa
 def spectrogram_png(path: str | Path, pressure_pa: np.ndarray, sample_rate: int,
                     title: str = "", floor_db: float = 0.0, top_db: float = 100.0) -> Path:
     """Spectrogram in dB SPL (re 20 uPa), 0-22 kHz, time left to right, with a title."""
+    canvas = spectrogram_image(pressure_pa, sample_rate, title, floor_db, top_db)
+    ok, enc = cv2.imencode(".png", canvas[:, :, ::-1])
+    if not ok:
+        raise OSError(f"could not encode {path}")
+    return write_bytes(path, enc.tobytes())
+
+
+def spectrogram_image(pressure_pa: np.ndarray, sample_rate: int, title: str = "",
+                      floor_db: float = 0.0, top_db: float = 100.0,
+                      size: tuple[int, int] = (800, 400)) -> np.ndarray:
+    """The spectrogram of :func:`spectrogram_png` as an RGB image (size[1] + 40, size[0], 3)."""
     f, t, s = spectrogram(pressure_pa, fs=sample_rate, nperseg=1024, noverlap=768,
                           scaling="spectrum", mode="psd")
     db = 10 * np.log10(s + 1e-30) - 20 * np.log10(20e-6)
     v = np.clip((db - floor_db) / (top_db - floor_db), 0, 1)[::-1]  # high frequencies on top
     img = cv2.applyColorMap((v * 255).astype(np.uint8), cv2.COLORMAP_MAGMA)
-    img = cv2.resize(img, (800, 400), interpolation=cv2.INTER_NEAREST)
-    canvas = np.full((440, 800, 3), 255, np.uint8)
+    img = cv2.resize(img, size, interpolation=cv2.INTER_NEAREST)
+    canvas = np.full((size[1] + 40, size[0], 3), 255, np.uint8)
     canvas[40:, :] = img
     label = f"{title}   0-{sample_rate // 2000} kHz, {len(pressure_pa) / sample_rate:.1f} s, " \
             f"{floor_db:.0f}-{top_db:.0f} dB SPL"
     cv2.putText(canvas, label, (8, 26), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (0, 0, 0), 1,
                 cv2.LINE_AA)
-    ok, enc = cv2.imencode(".png", canvas)
-    if not ok:
-        raise OSError(f"could not encode {path}")
-    return write_bytes(path, enc.tobytes())
+    return canvas[:, :, ::-1].copy()

@@ -15,8 +15,9 @@ from fallgen.atomic import write_text
 
 MANIFEST = "manifest.json"
 FORMAT_VERSION = 1
-#: Directories whose files the manifest lists.
+#: Directories whose files the manifest lists (and the card, README.md).
 LISTED = ("data", "media", "rehearsal")
+CARD = "README.md"
 
 
 def sha256(path: Path) -> str:
@@ -28,8 +29,9 @@ def sha256(path: Path) -> str:
 
 
 def listed_files(root: Path) -> list[Path]:
-    return sorted(p for d in LISTED for p in (root / d).glob("*")
-                  if p.is_file() and not p.name.endswith(".tmp"))
+    files = [p for d in LISTED for p in (root / d).glob("*")
+             if p.is_file() and not p.name.endswith(".tmp")]
+    return sorted(files + [root / CARD] if (root / CARD).is_file() else files)
 
 
 def versions() -> dict[str, str]:
@@ -62,6 +64,14 @@ def write_manifest(root: Path, config_text: str, root_seed: int, settings: dict)
     path = root / MANIFEST
     write_text(path, json.dumps(m, indent=1, sort_keys=True) + "\n")
     return path
+
+
+def finalize(root: Path, config_text: str, root_seed: int, settings: dict) -> Path:
+    """Once every shard exists: the dataset card, then the manifest (which lists the card)."""
+    from fallgen.dataset.card import write_card
+
+    write_card(root, config_text, root_seed, versions(), settings)
+    return write_manifest(root, config_text, root_seed, settings)
 
 
 def read_manifest(root: Path) -> dict:

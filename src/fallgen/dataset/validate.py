@@ -21,10 +21,8 @@ import pyarrow.parquet as pq
 
 from fallgen.config import SPLITS
 from fallgen.dataset.manifest import MANIFEST, listed_files, sha256
+from fallgen.dataset.schema import REQUIRED
 
-REQUIRED = ("episode_id", "split", "event_id", "room_variant", "room_kind", "category",
-            "material", "settle_pos", "spawn_x", "spawn_y", "spawn_heading", "expert_actions",
-            "media_file", "media_index", "audio_gain", "sample_rate")
 SHARD = re.compile(r"^(?P<split>[a-z_]+)-(?P<i>\d{5})-of-(?P<n>\d{5})\.(parquet|h5)$")
 
 
@@ -75,7 +73,7 @@ def validate(root: str | Path) -> list[str]:
             events |= set(pq.read_table(f, columns=["event_id"]).column(0).to_pylist())
         except Exception as e:  # a broken Parquet file raises several types
             problems.append(f"{f}: unreadable ({type(e).__name__})")
-    ids, by_split, per_split = [], {}, {}
+    ids, dropped, by_split, per_split = [], [], {}, {}
     for p in sorted((root / "data").glob("*.parquet")):
         try:
             t = pq.read_table(p)
@@ -86,7 +84,14 @@ def validate(root: str | Path) -> list[str]:
         if missing and t.num_rows:
             problems.append(f"{p}: missing columns {', '.join(missing)}")
             continue
+        try:
+            meta = json.loads((t.schema.metadata or {})[b"fallgen"])
+            dropped += [d[0] for d in meta["dropped"]]
+        except (KeyError, ValueError, TypeError, IndexError):
+            problems.append(f"{p}: no fallgen metadata (split, shard, dropped episodes)")
         rows = t.to_pylist()
+        if len({r["room_kind"] for r in rows}) > 1:
+            problems.append(f"{p}: mixes room kinds (one per shard)")
         split = p.name.split("-")[0]
         per_split[split] = per_split.get(split, 0) + len(rows)
         media: dict[str, list[dict]] = {}
@@ -106,8 +111,11 @@ def validate(root: str | Path) -> list[str]:
         if counts.get(split, 0) != per_split.get(split, 0):
             problems.append(f"{man_path}: {split} has {per_split.get(split, 0)} episodes, "
                             f"manifest says {counts.get(split, 0)}")
-    if sorted(ids) != list(range(len(ids))):
-        problems.append(f"{root / 'data'}: episode ids are not unique and contiguous from 0")
+    if len(set(ids)) != len(ids) or set(ids) & set(dropped):
+        problems.append(f"{root / 'data'}: episode ids are not unique")
+    elif sorted(ids + dropped) != list(range(len(ids) + len(dropped))):
+        problems.append(f"{root / 'data'}: episode ids (with the dropped ones) are not "
+                        "contiguous from 0")
     main = [s for s in SPLITS if s in by_split]
     for a in range(len(main)):
         for b in range(a + 1, len(main)):

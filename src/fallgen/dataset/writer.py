@@ -23,6 +23,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from fallgen.dataset.schema import COLUMNS
 from fallgen.nav.agent import ACTIONS
 
 GZIP = 4
@@ -38,10 +39,14 @@ def _dataset(h5: h5py.Group, name: str, data: np.ndarray) -> None:
                       compression_opts=GZIP, shuffle=True, track_times=False)
 
 
-def row_of(ep, split: str, media: str, index: int, root_seed: int, attempts: int) -> dict:
+def row_of(ep, split: str, media: str, index: int, root_seed: int,
+           skipped: list[tuple[str, str]] = ()) -> dict:
+    """The episode's Parquet row (columns in :data:`fallgen.dataset.schema.COLUMNS` order);
+    ``skipped``: the (event_id, reason) pairs tried before ``ep.event``."""
     e = ep.event
     plan = ep.expert.plan
-    return {
+    peak, leq = ep.audio.levels_db_spl()
+    row = {
         "episode_id": ep.episode_id, "split": split, "event_id": e.event_id,
         "room_variant": e.room_variant, "room_kind": e.room_kind, "zone": e.zone,
         "zone_kind": e.zone_kind, "category": e.target.category, "variant": e.target.variant,
@@ -52,22 +57,31 @@ def row_of(ep, split: str, media: str, index: int, root_seed: int, attempts: int
         "settle_time_s": e.settle_time_s, "contacts": len(e.contacts),
         "spawn_x": ep.spawn.x, "spawn_y": ep.spawn.y, "spawn_heading": ep.spawn.heading,
         "spawn_yaw_rad": ep.spawn.yaw_rad, "spawn_sees_object": ep.spawn_sees_object,
-        "expert_actions": list(plan.actions), "expert_path_m": plan.path_m,
+        "expert_actions": list(plan.actions),
+        "expert_poses": [[p.x, p.y, float(p.heading), float(p.tilt_deg)]
+                         for p in ep.expert_poses],
+        "expert_path_m": plan.path_m,
         "shortest_path_m": ep.expert.shortest_m, "fewest_actions": ep.expert.fewest_actions,
         "expert_spl": ep.expert_spl, "expert_sna": ep.expert_sna,
         "goal_x": plan.goal.x, "goal_y": plan.goal.y, "goal_heading": plan.goal.heading,
         "goal_tilt_deg": plan.goal.tilt_deg,
         "target_cell": list(ep.target_cell), "grid_resolution_m": ep.grid.resolution,
-        "audio_gain": ep.audio.gain, "sample_rate": ep.audio.sample_rate,
+        "audio_gain": ep.audio.gain, "audio_peak_db_spl": peak, "audio_leq_db_spl": leq,
+        "sample_rate": ep.audio.sample_rate,
         "instance_labels": json.dumps(list(ep.view.instances)),
-        "root_seed": root_seed, "event_attempts": attempts,
+        "root_seed": root_seed, "event_attempts": len(skipped) + 1,
+        "skipped_events": json.dumps([list(s) for s in skipped]),
         "media_file": media, "media_index": index,
     }
+    assert list(row) == list(COLUMNS), "row_of and schema.COLUMNS disagree"
+    return row
 
 
 def write_shard(root: Path, split: str, i: int, n: int, episodes: list, rows: list[dict],
-                category_labels: tuple[str, ...]) -> tuple[Path, Path]:
-    """Write one shard (media, then rows), atomically."""
+                category_labels: tuple[str, ...], dropped: list = ()) -> tuple[Path, Path]:
+    """Write one shard (media, then rows), atomically. ``dropped``: planned episodes no event
+    could make, as [episode_id, [[event_id, reason], ...]], kept in the Parquet schema's
+    metadata (key ``fallgen``) so that ``validate`` and ``stats`` can account for them."""
     name = shard_name(split, i, n)
     media = root / "media" / f"{name}.h5"
     data = root / "data" / f"{name}.parquet"
@@ -95,6 +109,8 @@ def write_shard(root: Path, split: str, i: int, n: int, episodes: list, rows: li
                     _dataset(g, "instance", np.stack([v.instance for v in ep.frames]))
     os.replace(tmp, media)
     table = pa.Table.from_pylist(rows) if rows else pa.table({"episode_id": pa.array([], pa.int64())})
+    meta = {"split": split, "shard": i, "num_shards": n, "dropped": [list(d) for d in dropped]}
+    table = table.replace_schema_metadata({"fallgen": json.dumps(meta, sort_keys=True)})
     tmp = data.with_name(data.name + ".tmp")
     pq.write_table(table, tmp, compression="zstd")
     os.replace(tmp, data)

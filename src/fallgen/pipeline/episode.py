@@ -81,7 +81,8 @@ class Episode:
     expert: Expert
     expert_spl: float
     expert_sna: float
-    frames: tuple[View, ...] = ()  # along the expert trajectory (when asked)
+    expert_poses: tuple[Pose, ...] = ()  # the spawn, then the pose after each expert action
+    frames: tuple[View, ...] = ()  # the view at each of expert_poses (when asked)
     timings_s: dict[str, float] = field(default_factory=dict)
 
 
@@ -172,7 +173,7 @@ class EpisodeMaker:
         finally:
             camera.close()
         return Episode(episode_id, event, spawn, sees, clip, view, grid, grid.cell(centre), ex,
-                       out.spl(ex.shortest_m), out.sna(ex.fewest_actions), shots, t)
+                       out.spl(ex.shortest_m), out.sna(ex.fewest_actions), out.poses, shots, t)
 
     def _spawn(self, rng: np.random.Generator, grid: OccupancyGrid, centre: np.ndarray,
                camera: EgoCamera, data: mujoco.MjData) -> tuple[Pose, bool]:

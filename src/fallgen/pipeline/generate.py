@@ -26,12 +26,12 @@ from fallgen.audio.hrtf import load_sofa, spherical_head
 from fallgen.audio.mix import Binaural
 from fallgen.audio.room import RirSettings
 from fallgen.config import SPLITS, BuildConfig
-from fallgen.dataset.manifest import write_manifest
+from fallgen.dataset.manifest import finalize
 from fallgen.dataset.writer import row_of, shard_name, write_shard
 from fallgen.physics.events import FallEvent
 from fallgen.physics.rehearse import read_events, rehearsal_dir
 from fallgen.pipeline.episode import EpisodeMaker, Skip
-from fallgen.pipeline.plan import PlannedEpisode, plan
+from fallgen.pipeline.plan import PlannedEpisode, plan, pools_of
 from fallgen.world.library import World, load_world
 
 MAX_EVENT_ATTEMPTS = 10
@@ -60,16 +60,23 @@ class ShardJob:
     split: str
     index: int
     count: int
+    room_kind: str
     episodes: tuple[PlannedEpisode, ...]
 
 
 def shard_jobs(planned: list[PlannedEpisode], per_shard: int) -> list[ShardJob]:
+    """Each split's episodes in shards of ``per_shard``, one room kind per shard (so the
+    cross-scene splits are sets of whole files), numbered across the split's kinds."""
     jobs = []
     for split in SPLITS:
         eps = [p for p in planned if p.split == split]
-        n = max(1, -(-len(eps) // per_shard)) if eps else 0
-        for i in range(n):
-            jobs.append(ShardJob(split, i, n, tuple(eps[i * per_shard:(i + 1) * per_shard])))
+        kinds = sorted({p.room_kind for p in eps})
+        chunks = []
+        for kind in kinds:
+            mine = [p for p in eps if p.room_kind == kind]
+            chunks += [(kind, tuple(mine[i:i + per_shard])) for i in range(0, len(mine), per_shard)]
+        for i, (kind, chunk) in enumerate(chunks):
+            jobs.append(ShardJob(split, i, len(chunks), kind, chunk))
     return jobs
 
 
@@ -81,7 +88,7 @@ def _maker(world: World, cfg: BuildConfig) -> EpisodeMaker:
 
 
 def make_shard(world: World, maker: EpisodeMaker, cfg: BuildConfig, job: ShardJob,
-               events: dict[str, FallEvent], pools: dict[str, list[str]], out: Path
+               events: dict[str, FallEvent], pools: dict[tuple[str, str], list[str]], out: Path
                ) -> ShardResult:
     name = shard_name(job.split, job.index, job.count)
     res = ShardResult(name, 0)
@@ -89,25 +96,28 @@ def make_shard(world: World, maker: EpisodeMaker, cfg: BuildConfig, job: ShardJo
         res.skipped_shard = True
         res.episodes = len(job.episodes)
         return res
-    episodes, rows = [], []
+    episodes, rows, dropped = [], [], []
     for p in job.episodes:
-        pool = pools[p.split]
+        pool = pools[(p.split, p.room_kind)]
         first = pool.index(p.event_id)
+        skipped: list[tuple[str, str]] = []
         for attempt in range(min(MAX_EVENT_ATTEMPTS, len(pool))):
             ev = events[pool[(first + attempt) % len(pool)]]
             try:
                 ep = maker.make(p.episode_id, ev, cfg.root_seed, cfg.generate.frames)
             except Skip as s:
                 res.skips[s.reason] += 1
+                skipped.append((ev.event_id, s.reason))
                 continue
             rows.append(row_of(ep, p.split, f"media/{name}.h5", len(episodes), cfg.root_seed,
-                               attempt + 1))
+                               skipped))
             episodes.append(ep)
             res.timings_s.update(ep.timings_s)
             break
         else:
             res.skips["episode_dropped"] += 1
-    write_shard(out, job.split, job.index, job.count, episodes, rows, maker.labels)
+            dropped.append([p.episode_id, [list(s) for s in skipped]])
+    write_shard(out, job.split, job.index, job.count, episodes, rows, maker.labels, dropped)
     res.episodes = len(episodes)
     return res
 
@@ -123,7 +133,7 @@ def _init(root: str, cfg: BuildConfig, out: str) -> None:
                   events={e.event_id: e for e in events})
 
 
-def _work(args: tuple[ShardJob, dict[str, list[str]]]) -> ShardResult:
+def _work(args: tuple[ShardJob, dict[tuple[str, str], list[str]]]) -> ShardResult:
     job, pools = args
     s = _STATE
     return make_shard(s["world"], s["maker"], s["cfg"], job, s["events"], pools, s["out"])
@@ -136,11 +146,7 @@ def generate(world: World, cfg: BuildConfig, out: Path | None = None, workers: i
     out = out or cfg.out
     events = load_events(cfg, out)
     planned = plan(events, cfg.generate.episodes, cfg.root_seed)
-    pools: dict[str, list[str]] = {}
-    for p in planned:
-        pool = pools.setdefault(p.split, [])
-        if p.event_id not in pool:
-            pool.append(p.event_id)
+    pools = pools_of(planned)
     jobs = shard_jobs(planned, cfg.generate.episodes_per_shard)
     results: list[ShardResult] = []
     if workers <= 1:
@@ -161,7 +167,7 @@ def generate(world: World, cfg: BuildConfig, out: Path | None = None, workers: i
                 results.append(r)
                 if progress:
                     progress(r)
-    write_manifest(out, cfg.file.read_text(), cfg.root_seed,
+    finalize(out, cfg.file.read_text(), cfg.root_seed,
                    {"generate": dataclasses.asdict(cfg.generate),
                     "rehearse": dataclasses.asdict(cfg.rehearse)})
     return results

@@ -1,11 +1,17 @@
-"""Planning a build: which episode ids exist, their split and their fall event.
+"""Planning a build: which episode ids exist, their split, room kind and fall event.
 
-Episode ids run 0 .. N-1 over the splits in ``SPLITS`` order (train first). The rehearsed events
-(sorted by id, so the plan does not depend on file order) are shuffled once with the root seed and
-dealt to the splits in proportion to their episode counts, so no event is shared between
-splits; within a split, episode k uses the split's events in turn (k mod the pool size: with more
-episodes than events an event returns with a new spawn and a new sound texture). Each episode
-then draws everything else from its own generator (``episode_rng``).
+Each split's episodes are divided evenly between the room kinds present in the rehearsal
+(kitchen, study), the remainder to the first kinds, so the cross-scene splits of the paper
+(train on kitchens, test on study rooms, and the reverse) are the kind-halves of the standard
+splits: no episode is made twice, and they stay disjoint in fall events.
+
+Episode ids run 0 .. N-1 over the splits in ``SPLITS`` order (train first) and, within a split,
+over the kinds in sorted order. The rehearsed events of each kind (sorted by id, so the plan does
+not depend on file order) are shuffled once with the root seed and dealt to the splits in
+proportion to their episode counts, so no event is shared between splits; within a (split,
+kind), episode k uses its pool's events in turn (k mod the pool size: with more episodes than
+events an event returns with a new spawn and a new sound texture). Each episode then draws
+everything else from its own generator (``episode_rng``).
 """
 
 from __future__ import annotations
@@ -25,7 +31,34 @@ PLAN_KEY = 2 ** 32 - 1
 class PlannedEpisode:
     episode_id: int
     split: str
+    room_kind: str
     event_id: str
+
+
+def _deal(order: list[str], wanted: tuple[int, ...], kind: str) -> list[list[str]]:
+    """``order`` dealt to the splits in proportion to ``wanted`` (at least one event for a
+    split that has episodes)."""
+    total = sum(wanted)
+    need = [k for k, n in enumerate(wanted) if n]
+    if len(order) < len(need):
+        raise ValueError(f"too few {kind} fall events ({len(order)}) for "
+                         f"{len(need)} splits with {kind} episodes")
+    pools, start = [], 0
+    for k, n in enumerate(wanted):
+        if n == 0:
+            pools.append([])
+            continue
+        later = sum(1 for m in wanted[k + 1:] if m)
+        share = len(order) - start - later if not later else \
+            max(1, min(round(len(order) * n / total), len(order) - start - later))
+        pools.append(order[start:start + share])
+        start += share
+    return pools
+
+
+def kind_counts(n: int, kinds: list[str]) -> dict[str, int]:
+    """``n`` episodes divided evenly between ``kinds`` (remainder to the first)."""
+    return {k: n // len(kinds) + (1 if i < n % len(kinds) else 0) for i, k in enumerate(kinds)}
 
 
 def plan(events: list[FallEvent], episodes: tuple[int, ...], root_seed: int
@@ -35,25 +68,33 @@ def plan(events: list[FallEvent], episodes: tuple[int, ...], root_seed: int
     ids = sorted(e.event_id for e in events)
     if len(set(ids)) != len(ids):
         raise ValueError("duplicate fall event ids")
+    kind_of = {e.event_id: e.room_kind for e in events}
+    kinds = sorted(set(kind_of.values()))
+    per_kind = [kind_counts(n, kinds) for n in episodes]
     rng = np.random.default_rng(np.random.SeedSequence(root_seed, spawn_key=(PLAN_KEY,)))
-    order = [ids[i] for i in rng.permutation(len(ids))]
-    total = sum(episodes)
-    wanted = [n for n in episodes]
-    # events per split in proportion to the episodes (at least one for a split that has any)
-    pools, start = [], 0
-    for k, n in enumerate(wanted):
-        if n == 0:
-            pools.append([])
-            continue
-        share = max(1, round(len(order) * n / total)) if k < len(wanted) - 1 else len(order) - start
-        share = max(1, min(share, len(order) - start - sum(1 for m in wanted[k + 1:] if m)))
-        pools.append(order[start:start + share])
-        start += share
+    pools: dict[tuple[str, str], list[str]] = {}
+    for kind in kinds:
+        mine = [i for i in ids if kind_of[i] == kind]
+        order = [mine[i] for i in rng.permutation(len(mine))]
+        wanted = tuple(c[kind] for c in per_kind)
+        for split, pool in zip(SPLITS, _deal(order, wanted, kind)):
+            pools[(split, kind)] = pool
     out, eid = [], 0
-    for split, n, pool in zip(SPLITS, wanted, pools):
-        if n and not pool:
-            raise ValueError(f"too few fall events ({len(order)}) for the {split} split")
-        for k in range(n):
-            out.append(PlannedEpisode(eid, split, pool[k % len(pool)]))
-            eid += 1
+    for split, counts in zip(SPLITS, per_kind):
+        for kind in kinds:
+            pool = pools[(split, kind)]
+            for k in range(counts[kind]):
+                out.append(PlannedEpisode(eid, split, kind, pool[k % len(pool)]))
+                eid += 1
     return out
+
+
+def pools_of(planned: list[PlannedEpisode]) -> dict[tuple[str, str], list[str]]:
+    """Each (split, kind)'s events in first-use order: where an unusable event's episode looks
+    for another (same split, same kind: shards stay one room kind)."""
+    pools: dict[tuple[str, str], list[str]] = {}
+    for p in planned:
+        pool = pools.setdefault((p.split, p.room_kind), [])
+        if p.event_id not in pool:
+            pool.append(p.event_id)
+    return pools

@@ -32,8 +32,9 @@ _KIND_COLORS = {  # BGR
 assert set(_KIND_COLORS) == set(ZONE_KINDS)
 
 
-def draw_variant(v: RoomVariant, px_per_m: float = 110.0) -> np.ndarray:
-    """An RGB image (H, W, 3) uint8 of the variant seen from above."""
+def draw_variant(v: RoomVariant, px_per_m: float = 110.0, overlay=None) -> np.ndarray:
+    """An RGB image (H, W, 3) uint8 of the variant seen from above; ``overlay(img_bgr, px)``
+    may draw on it before the title and legend (``px`` maps room (x, y) metres to pixels)."""
     lx, ly, _ = v.size_m
     margin, legend_w, title_h = 40, 230, 56
     W = int(lx * px_per_m) + 2 * margin + legend_w
@@ -95,6 +96,8 @@ def draw_variant(v: RoomVariant, px_per_m: float = 110.0) -> np.ndarray:
         cv2.putText(img, label, (x0 + 4, y0 + 13), cv2.FONT_HERSHEY_SIMPLEX, 0.4,
                     (255, 255, 255), 1, cv2.LINE_AA)
 
+    if overlay is not None:
+        overlay(img, px)
     title = f"{v.id}  ({v.kind}, {lx:g} x {ly:g} x {v.size_m[2]:g} m)"
     cv2.putText(img, title, (margin, 26), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (0, 0, 0), 1, cv2.LINE_AA)
     sub = (f"floor {v.surfaces['floor'].name}, walls {v.surfaces['north'].name}, "

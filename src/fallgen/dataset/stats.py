@@ -1,0 +1,104 @@
+"""``fallgen stats DATASET``: what a dataset holds, from its Parquet rows alone.
+
+Counts by split and room kind, category, audio material and zone kind; expert lengths; the
+distribution of audio levels at the ear; and where the episodes come from compared with the
+rehearsed events: events unusable for an episode (no pose sees the object, the replay diverged)
+are replaced by others of the same split and room kind, so zone kinds that are hard to see from
+the robot's camera are under-represented. ``bias`` reports each zone kind's share of the
+episodes against its share of the rehearsed events, and the skip reasons by zone kind.
+"""
+
+from __future__ import annotations
+
+import json
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+import pyarrow.parquet as pq
+
+from fallgen.config import SPLITS
+
+COLUMNS = ["episode_id", "split", "room_kind", "room_variant", "category", "audio_material",
+           "zone_kind", "expert_actions", "expert_path_m", "shortest_path_m",
+           "audio_peak_db_spl", "audio_leq_db_spl", "event_attempts", "skipped_events",
+           "spawn_sees_object"]
+PERCENTILES = (5, 25, 50, 75, 95)
+
+
+def _summary(x) -> dict:
+    x = np.asarray(x, float)
+    if not len(x):
+        return {"n": 0}
+    return {"n": int(len(x)), "mean": float(x.mean()),
+            **{f"p{q}": float(np.percentile(x, q)) for q in PERCENTILES},
+            "min": float(x.min()), "max": float(x.max())}
+
+
+def _split_order(split: str) -> tuple[int, str]:
+    return (SPLITS.index(split) if split in SPLITS else len(SPLITS), split)
+
+
+def _sorted(c: Counter) -> dict:
+    return dict(sorted(c.items(), key=lambda kv: (-kv[1], kv[0])))
+
+
+def stats(root: str | Path) -> dict:
+    root = Path(root)
+    rows, dropped = [], []
+    for p in sorted((root / "data").glob("*.parquet")):
+        t = pq.read_table(p, columns=COLUMNS) if pq.read_metadata(p).num_rows else None
+        if t is not None:
+            rows += t.to_pylist()
+        meta = json.loads((pq.read_schema(p).metadata or {}).get(b"fallgen", b"{}"))
+        dropped += meta.get("dropped", [])
+    events: dict[str, str] = {}
+    for p in sorted((root / "rehearsal").glob("*.parquet")):
+        t = pq.read_table(p, columns=["event_id", "zone_kind"])
+        events.update(zip(t.column(0).to_pylist(), t.column(1).to_pylist()))
+
+    out: dict = {"episodes": len(rows), "dropped_episodes": len(dropped)}
+    out["by_split"] = {s: dict(sorted(Counter(r["room_kind"] for r in rows
+                                              if r["split"] == s).items()))
+                       for s in sorted({r["split"] for r in rows}, key=_split_order)}
+    out["room_variants"] = len({r["room_variant"] for r in rows})
+    for key in ("category", "audio_material", "zone_kind"):
+        out[f"by_{key}"] = _sorted(Counter(r[key] for r in rows))
+    n_actions = [len(r["expert_actions"]) for r in rows]
+    looks = [sum(a in (3, 4) for a in r["expert_actions"]) for r in rows]
+    out["expert"] = {"actions": _summary(n_actions), "path_m": _summary(
+        [r["expert_path_m"] for r in rows]), "shortest_path_m": _summary(
+        [r["shortest_path_m"] for r in rows]), "episodes_that_look_up_or_down":
+        int(sum(n > 0 for n in looks))}
+    out["audio_db_spl"] = {"peak": _summary([r["audio_peak_db_spl"] for r in rows]),
+                           "leq_125ms": _summary([r["audio_leq_db_spl"] for r in rows])}
+    edges = np.arange(0, 150, 10)
+    hist, _ = np.histogram([r["audio_leq_db_spl"] for r in rows], bins=edges)
+    out["audio_db_spl"]["leq_125ms_histogram"] = {f"{a}-{a + 10}": int(h)
+                                                  for a, h in zip(edges[:-1], hist) if h}
+    # where the episodes come from, against what was rehearsed
+    skips = [(e, reason) for r in rows for e, reason in json.loads(r["skipped_events"])]
+    skips += [(e, reason) for _, tried in dropped for e, reason in tried]
+    out["spawn_sees_object"] = int(sum(r["spawn_sees_object"] for r in rows))
+    out["episodes_on_a_fallback_event"] = int(sum(r["event_attempts"] > 1 for r in rows))
+    out["skips_by_reason"] = _sorted(Counter(reason for _, reason in skips))
+    rehearsed = Counter(events.values())
+    used = Counter(r["zone_kind"] for r in rows)
+    skipped_kind = Counter(events.get(e, "?") for e, _ in skips)
+    tried_kind = Counter()
+    for r in rows:
+        tried_kind[r["zone_kind"]] += 1
+    tried_kind.update(skipped_kind)
+    n_ev = sum(rehearsed.values()) or 1
+    n_ep = len(rows) or 1
+    out["bias"] = {k: {"rehearsed_events": rehearsed[k],
+                       "rehearsed_share": rehearsed[k] / n_ev,
+                       "episode_share": used[k] / n_ep,
+                       "ratio": (used[k] / n_ep) / (rehearsed[k] / n_ev) if rehearsed[k] else None,
+                       "events_skipped": skipped_kind[k],
+                       "skip_rate": skipped_kind[k] / tried_kind[k] if tried_kind[k] else None}
+                   for k in sorted(set(rehearsed) | set(used))}
+    return out
+
+
+__all__ = ["stats"]
