@@ -46,6 +46,8 @@ bench: setup
 		$$(sed -n 's/^pyroomacoustics=/--pyroomacoustics /p' build/peers-room.env) \
 		| tee build/bench-room.json
 	$(PY) bench/generate_bench.py | tee build/bench-generate.json
+	$(PY) bench/build_bench.py | tee build/bench-build.json
+	$(PY) bench/report.py build
 
 assets: setup
 	$(FALLGEN) assets modes --workers $(WORKERS)
@@ -56,12 +58,18 @@ rehearse: setup
 generate: setup
 	$(FALLGEN) generate --config $(CONFIG) --workers $(WORKERS)
 
-dataset: rehearse generate
+## dataset: the paper-size build (64 room variants, 8000 episodes) from scratch, then validated.
+## Reruns resume. Many machines: see README (--shard-index/--num-shards, fallgen finalize).
+dataset: setup
+	$(FALLGEN) build --config configs/full.toml --workers $(WORKERS)
+	$(FALLGEN) validate build/full
+	$(FALLGEN) stats build/full --json build/full-stats.json
 
+## smoke: a tiny build (two rooms, 24 episodes), validated; CI runs it besides the tests.
 smoke: setup
-	$(FALLGEN) rehearse --config configs/smoke.toml --workers $(WORKERS)
-	$(FALLGEN) generate --config configs/smoke.toml --workers $(WORKERS)
-	@echo "smoke: validation (issue 7) is not built yet"
+	$(FALLGEN) build --config configs/smoke.toml --workers $(WORKERS)
+	$(FALLGEN) validate build/smoke
+	$(FALLGEN) stats build/smoke
 
 lint: setup
 	$(PY) -m ruff check src tests || true

@@ -106,8 +106,8 @@ def tiny_build(tmp_path_factory):
     cfg = base / "tiny.toml"
     cfg.write_text(TINY_CONFIG.format(out=base / "one"))
     assert run_cli("generate", "-c", str(cfg)) == 2  # no rehearsal yet: one-line error
-    assert run_cli("rehearse", "-c", str(cfg)) == 0
+    assert run_cli("rehearse", "-c", str(cfg), "--workers", "1") == 0
     shutil.copytree(base / "one" / "rehearsal", base / "two" / "rehearsal")
-    assert run_cli("generate", "-c", str(cfg)) == 0
+    assert run_cli("generate", "-c", str(cfg), "--workers", "1") == 0
     assert run_cli("generate", "-c", str(cfg), "--out", str(base / "two"), "--workers", "2") == 0
     return base, cfg

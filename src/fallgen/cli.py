@@ -6,6 +6,7 @@ maps bad input to a one-line ``error: FILE: FIELD: MESSAGE`` on stderr with exit
 
 from __future__ import annotations
 
+import os
 import sys
 from pathlib import Path
 from typing import Annotated, Optional
@@ -75,34 +76,55 @@ def _variants(world, pattern: str):
     return vs
 
 
-# --- rehearse -----------------------------------------------------------------------------------
+# --- the two phases and the whole build ----------------------------------------------------------
 
-@app.command()
-def rehearse(
-    config: Annotated[Path, typer.Option("--config", "-c", help="Build config (configs/*.toml).")],
-    rooms: Annotated[Optional[str], typer.Option(help="Glob(s) over variant ids, comma-separated "
-                                                 "(default: the config's).")] = None,
-    workers: Annotated[int, typer.Option(min=1, help="Worker processes.")] = 1,
-    out: Annotated[Optional[Path], typer.Option(help="Output directory (default: the config's "
-                                                "build.out).")] = None,
-    force: Annotated[bool, typer.Option(help="Redo variants that are already done.")] = False,
-    data_dir: DataDir = None,
-) -> None:
-    """Rehearsal phase: drop objects into every fall zone, keep those that settle inside it."""
+Config = Annotated[Path, typer.Option("--config", "-c", help="Build config (configs/*.toml).")]
+Workers = Annotated[Optional[int], typer.Option(
+    min=1, help="Worker processes (default: all cores; 1 runs in this process).",
+    show_default=False)]
+Out = Annotated[Optional[Path], typer.Option(help="Dataset directory (default: the config's "
+                                             "build.out).")]
+Executor = Annotated[str, typer.Option(help="'local' (a process pool) or 'ray' (one Ray task "
+                                       "per unit; pip install 'fallgen[ray]').")]
+RayAddress = Annotated[Optional[str], typer.Option(help="Ray cluster to join (default: start a "
+                                                   "local one).")]
+ShardIndex = Annotated[Optional[int], typer.Option(
+    min=0, help="Run only units I, I+N, ... of the phase (Slurm: $SLURM_ARRAY_TASK_ID, "
+    "Kubernetes: $JOB_COMPLETION_INDEX).")]
+NumShards = Annotated[Optional[int], typer.Option(min=1, help="N for --shard-index.")]
+
+
+def _workers(n: int | None) -> int:
+    return n if n is not None else (os.cpu_count() or 1)
+
+
+def _parallel(executor: str, shard_index, num_shards) -> dict:
+    from fallgen.pipeline.executor import EXECUTORS
+
+    if executor not in EXECUTORS:
+        raise InputError("<command line>", "--executor", f"{executor!r} is not one of "
+                         f"{', '.join(EXECUTORS)}")
+    if (shard_index is None) != (num_shards is None) or \
+            (shard_index is not None and shard_index >= num_shards):
+        raise InputError("<command line>", "--shard-index", "needs --num-shards N and "
+                         "0 <= I < N")
+    return {"executor": executor, "shard_index": shard_index, "num_shards": num_shards}
+
+
+def _run_rehearsal(cfg, world, rooms: str | None, workers: int, out: Path | None, force: bool,
+                   ray_address: str | None, parallel: dict) -> None:
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, \
         TimeElapsedColumn
 
-    from fallgen.config import load_config
     from fallgen.physics.rehearse import rehearsal_dir, rehearse as run, summarize
+    from fallgen.pipeline.executor import select_units
 
-    cfg = load_config(config)
-    world = _world(data_dir)
-    pattern = rooms or cfg.rehearse.rooms
-    vs = _variants(world, pattern)
+    vs = _variants(world, rooms or cfg.rehearse.rooms)
     dest = rehearsal_dir(cfg, out)
+    total = len(select_units(vs, parallel["shard_index"], parallel["num_shards"]))
     with Progress(TextColumn("rehearse"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                   TextColumn("{task.description}"), console=console) as bar:
-        task = bar.add_task("", total=len(vs))
+        task = bar.add_task("", total=total)
 
         def tick(vid: str, stats: dict | None) -> None:
             note = "skipped (done)" if stats is None else \
@@ -110,7 +132,7 @@ def rehearse(
             bar.update(task, advance=1, description=f"{vid}: {note}")
 
         stats = run(world, cfg, [v.id for v in vs], out=dest, workers=workers, force=force,
-                    progress=tick)
+                    progress=tick, ray_address=ray_address, **parallel)
     totals = summarize(stats)
     for title, table in (("zone kind", totals["zone_kind"]), ("category", totals["category"])):
         t = Table(title=f"rehearsal by {title}")
@@ -126,41 +148,21 @@ def rehearse(
     console.print(f"{k} events kept of {n} trials in {len(stats)} variants -> {dest}")
 
 
-@app.command()
-def generate(
-    config: Annotated[Path, typer.Option("--config", "-c", help="Build config (configs/*.toml).")],
-    workers: Annotated[int, typer.Option(min=1, help="Worker processes (whole shards each).")] = 1,
-    out: Annotated[Optional[Path], typer.Option(help="Dataset directory (default: the config's "
-                                                "build.out, where the rehearsal is).")] = None,
-    frames: Annotated[Optional[str], typer.Option(
-        help="'first' (the view at step 0) or 'trajectory' (also after every expert action); "
-             "default: the config's.")] = None,
-    data_dir: DataDir = None,
-) -> None:
-    """Generation phase: rehearsed falls -> episodes (spawn, binaural audio, first view, maps,
-    expert trajectory), written as Parquet + HDF5 shards; finished shards are kept (resume)."""
-    import dataclasses
+def _run_generation(cfg, config: Path, world, workers: int, out: Path | None,
+                    ray_address: str | None, parallel: dict) -> None:
     from collections import Counter
 
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, \
         TimeElapsedColumn
 
-    from fallgen.config import load_config
-    from fallgen.pipeline.generate import generate as run, load_events, shard_jobs
-    from fallgen.pipeline.plan import plan
+    from fallgen.pipeline.executor import select_units
+    from fallgen.pipeline.generate import build_plan, generate as run, missing_shards
 
-    cfg = load_config(config)
-    if frames is not None:
-        if frames not in ("first", "trajectory"):
-            raise typer.BadParameter("--frames must be 'first' or 'trajectory'")
-        cfg = dataclasses.replace(cfg, generate=dataclasses.replace(cfg.generate, frames=frames))
-    world = _world(data_dir)
     try:
-        events = load_events(cfg, out)
+        jobs = build_plan(cfg, out).jobs
     except FileNotFoundError as e:
         raise InputError(config, "build.out", str(e)) from None
-    n_shards = len(shard_jobs(plan(events, cfg.generate.episodes, cfg.root_seed),
-                              cfg.generate.episodes_per_shard))
+    n_shards = len(select_units(jobs, parallel["shard_index"], parallel["num_shards"]))
     skips: Counter = Counter()
     timings: Counter = Counter()
     made = 0
@@ -176,19 +178,112 @@ def generate(
             bar.update(task, advance=1, description=f"{r.name}: " + (
                 "done before" if r.skipped_shard else f"{r.episodes} episodes"))
 
-        run(world, cfg, out, workers=workers, progress=tick)
+        run(world, cfg, out, workers=workers, progress=tick, ray_address=ray_address, **parallel)
     dest = out or cfg.out
     size = sum(p.stat().st_size for d in ("data", "media") for p in (dest / d).glob("*")
                if p.is_file())
     console.print(f"{made} episodes in {n_shards} shards -> {dest}/data, {dest}/media: "
-                  f"{size / 1e6:.1f} MB, {size / max(made, 1) / 1e3:.0f} kB per episode; "
-                  f"card {dest}/README.md, manifest {dest}/manifest.json")
+                  f"{size / 1e6:.1f} MB, {size / max(made, 1) / 1e3:.0f} kB per episode")
+    left = missing_shards(cfg, dest)
+    console.print(f"card {dest}/README.md, manifest {dest}/manifest.json" if not left else
+                  f"{len(left)} shards of the build still missing (other shard indices); "
+                  f"`fallgen finalize -c {config}` once they exist")
     if skips:
         console.print("events skipped: " + ", ".join(f"{k} {v}" for k, v in skips.most_common()))
     total = sum(timings.values())
     if total:
         console.print("time by stage: " + ", ".join(
             f"{k} {v:.1f} s ({v / total:.0%})" for k, v in timings.most_common()))
+
+
+def _config(config: Path, frames: str | None = None):
+    import dataclasses
+
+    from fallgen.config import load_config
+
+    cfg = load_config(config)
+    if frames is not None:
+        if frames not in ("first", "trajectory"):
+            raise InputError("<command line>", "--frames", "must be 'first' or 'trajectory'")
+        cfg = dataclasses.replace(cfg, generate=dataclasses.replace(cfg.generate, frames=frames))
+    return cfg
+
+
+@app.command()
+def rehearse(
+    config: Config,
+    rooms: Annotated[Optional[str], typer.Option(help="Glob(s) over variant ids, comma-separated "
+                                                 "(default: the config's).")] = None,
+    workers: Workers = None,
+    out: Out = None,
+    force: Annotated[bool, typer.Option(help="Redo variants that are already done.")] = False,
+    executor: Executor = "local",
+    ray_address: RayAddress = None,
+    shard_index: ShardIndex = None,
+    num_shards: NumShards = None,
+    data_dir: DataDir = None,
+) -> None:
+    """Rehearsal phase: drop objects into every fall zone, keep those that settle inside it
+    (one Parquet file per room variant; variants already done are kept)."""
+    parallel = _parallel(executor, shard_index, num_shards)
+    _run_rehearsal(_config(config), _world(data_dir), rooms, _workers(workers), out, force,
+                   ray_address, parallel)
+
+
+@app.command()
+def generate(
+    config: Config,
+    workers: Workers = None,
+    out: Out = None,
+    frames: Annotated[Optional[str], typer.Option(
+        help="'first' (the view at step 0) or 'trajectory' (also after every expert action); "
+             "default: the config's.")] = None,
+    executor: Executor = "local",
+    ray_address: RayAddress = None,
+    shard_index: ShardIndex = None,
+    num_shards: NumShards = None,
+    data_dir: DataDir = None,
+) -> None:
+    """Generation phase: rehearsed falls -> episodes (spawn, binaural audio, first view, maps,
+    expert trajectory), written as Parquet + HDF5 shards; finished shards are kept (resume).
+    The card and manifest are written when the last shard of the build exists."""
+    parallel = _parallel(executor, shard_index, num_shards)
+    _run_generation(_config(config, frames), config, _world(data_dir), _workers(workers), out,
+                    ray_address, parallel)
+
+
+@app.command()
+def build(
+    config: Config,
+    workers: Workers = None,
+    out: Out = None,
+    executor: Executor = "local",
+    ray_address: RayAddress = None,
+    data_dir: DataDir = None,
+) -> None:
+    """Both phases on this machine (or a Ray cluster): rehearse every room variant of the
+    config, then generate every shard, card and manifest. Reruns resume."""
+    parallel = _parallel(executor, None, None)
+    cfg, world = _config(config), _world(data_dir)
+    _run_rehearsal(cfg, world, None, _workers(workers), out, False, ray_address, parallel)
+    _run_generation(cfg, config, world, _workers(workers), out, ray_address, parallel)
+
+
+@app.command()
+def finalize(
+    config: Config,
+    out: Out = None,
+) -> None:
+    """Write the dataset card and manifest once every shard exists (after a multi-machine build
+    with --shard-index); exit 2 naming the missing shards otherwise."""
+    from fallgen.pipeline.generate import finalize_build
+
+    cfg = _config(config)
+    try:
+        path = finalize_build(cfg, out)
+    except FileNotFoundError as e:
+        raise InputError(out or cfg.out, "data/", str(e)) from None
+    console.print(f"{path.parent / 'README.md'}, {path}")
 
 
 @app.command()

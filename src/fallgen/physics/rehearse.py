@@ -14,7 +14,6 @@ import json
 import os
 from collections import Counter
 from collections.abc import Callable, Iterable
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -104,22 +103,27 @@ def _init_worker(data_root: str) -> None:
     _WORLD = load_world(data_root)
 
 
-def _work(args: tuple[str, BuildConfig, str]) -> dict:
+def _work(args: tuple[str, BuildConfig, str]) -> tuple[str, dict]:
     variant_id, cfg, out_dir = args
     assert _WORLD is not None
     events, stats = rehearse_variant(_WORLD, variant_id, cfg)
     write_variant(Path(out_dir) / f"{variant_id}.parquet", events, stats)
-    return stats.as_dict()
+    return variant_id, stats.as_dict()
 
 
 def rehearse(world: World, cfg: BuildConfig, variant_ids: Iterable[str], *, out: Path,
              workers: int = 1, force: bool = False,
-             progress: Callable[[str, dict | None], None] | None = None) -> list[RoomStats]:
-    """Rehearse the given variants into ``out``; returns the stats of every variant (the
-    skipped ones read back from their sidecar)."""
+             progress: Callable[[str, dict | None], None] | None = None,
+             executor: str = "local", ray_address: str | None = None,
+             shard_index: int | None = None, num_shards: int | None = None) -> list[RoomStats]:
+    """Rehearse the given variants (or those of ``shard_index`` of ``num_shards``, round robin)
+    into ``out``; returns the stats of every variant (the skipped ones read back from their
+    sidecar). ``workers`` > 1 or ``executor="ray"``: one variant per task."""
+    from fallgen.pipeline.executor import parallel_map, select_units
+
     out.mkdir(parents=True, exist_ok=True)
     todo, done = [], []
-    for vid in variant_ids:
+    for vid in select_units(list(variant_ids), shard_index, num_shards):
         p = out / f"{vid}.parquet"
         if p.exists() and p.with_suffix(".stats.json").exists() and not force:
             done.append(RoomStats.from_dict(json.loads(p.with_suffix(".stats.json").read_text())))
@@ -128,7 +132,7 @@ def rehearse(world: World, cfg: BuildConfig, variant_ids: Iterable[str], *, out:
         else:
             todo.append(vid)
     results: list[RoomStats] = []
-    if workers <= 1:
+    if executor == "local" and min(workers, len(todo)) <= 1:  # in this process
         for vid in todo:
             events, stats = rehearse_variant(world, vid, cfg)
             write_variant(out / f"{vid}.parquet", events, stats)
@@ -136,12 +140,12 @@ def rehearse(world: World, cfg: BuildConfig, variant_ids: Iterable[str], *, out:
             if progress:
                 progress(vid, stats.as_dict())
     else:
-        with ProcessPoolExecutor(workers, initializer=_init_worker,
-                                 initargs=(str(world.root),)) as ex:
-            for vid, d in zip(todo, ex.map(_work, [(v, cfg, str(out)) for v in todo])):
-                results.append(RoomStats.from_dict(d))
-                if progress:
-                    progress(vid, d)
+        for vid, d in parallel_map(_work, [(v, cfg, str(out)) for v in todo], _init_worker,
+                                   (str(world.root),), min(workers, len(todo)), executor,
+                                   ray_address):
+            results.append(RoomStats.from_dict(d))
+            if progress:
+                progress(vid, d)
     return done + results
 
 

@@ -14,11 +14,9 @@ from __future__ import annotations
 
 import dataclasses
 import glob
-import multiprocessing
-import os
+import itertools
 from collections import Counter
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -31,6 +29,7 @@ from fallgen.dataset.writer import row_of, shard_name, write_shard
 from fallgen.physics.events import FallEvent
 from fallgen.physics.rehearse import read_events, rehearsal_dir
 from fallgen.pipeline.episode import EpisodeMaker, Skip
+from fallgen.pipeline.executor import parallel_map, select_units
 from fallgen.pipeline.plan import PlannedEpisode, plan, pools_of
 from fallgen.world.library import World, load_world
 
@@ -126,7 +125,7 @@ _STATE: dict = {}
 
 
 def _init(root: str, cfg: BuildConfig, out: str) -> None:
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    """A worker's state, made once: the world, the episode maker (modal models, HRTF), events."""
     world = load_world(root)
     events = load_events(cfg, Path(out))
     _STATE.update(world=world, maker=_maker(world, cfg), cfg=cfg, out=Path(out),
@@ -139,38 +138,80 @@ def _work(args: tuple[ShardJob, dict[tuple[str, str], list[str]]]) -> ShardResul
     return make_shard(s["world"], s["maker"], s["cfg"], job, s["events"], pools, s["out"])
 
 
-def generate(world: World, cfg: BuildConfig, out: Path | None = None, workers: int = 1,
-             progress: Callable[[ShardResult], None] | None = None) -> list[ShardResult]:
-    """Make every shard of the build that is not done yet, then (re)write the manifest;
-    returns per-shard results."""
-    out = out or cfg.out
-    events = load_events(cfg, out)
+@dataclass(frozen=True)
+class Build:
+    """What a configuration makes: its events' plan, the shard jobs and the event pools."""
+
+    jobs: list[ShardJob]
+    pools: dict[tuple[str, str], list[str]]
+    events: list[FallEvent]
+
+
+def build_plan(cfg: BuildConfig, out: Path | None = None) -> Build:
+    events = load_events(cfg, out or cfg.out)
     planned = plan(events, cfg.generate.episodes, cfg.root_seed)
-    pools = pools_of(planned)
-    jobs = shard_jobs(planned, cfg.generate.episodes_per_shard)
+    return Build(shard_jobs(planned, cfg.generate.episodes_per_shard), pools_of(planned), events)
+
+
+def missing_shards(cfg: BuildConfig, out: Path | None = None, b: Build | None = None
+                   ) -> list[str]:
+    out = out or cfg.out
+    jobs = (b or build_plan(cfg, out)).jobs
+    return [_name(j) for j in jobs if not (out / "data" / f"{_name(j)}.parquet").exists()]
+
+
+def finalize_build(cfg: BuildConfig, out: Path | None = None, b: Build | None = None) -> Path:
+    """Write the card and the manifest once every shard of the build exists (after the array
+    jobs of a multi-machine build); raises FileNotFoundError naming the missing shards."""
+    out = out or cfg.out
+    missing = missing_shards(cfg, out, b)
+    if missing:
+        more = f" and {len(missing) - 3} more" if len(missing) > 3 else ""
+        raise FileNotFoundError(f"{len(missing)} shards not made yet: "
+                                f"{', '.join(missing[:3])}{more}")
+    return finalize(out, cfg.file.read_text(), cfg.root_seed,
+                    {"generate": dataclasses.asdict(cfg.generate),
+                     "rehearse": dataclasses.asdict(cfg.rehearse)})
+
+
+def generate(world: World, cfg: BuildConfig, out: Path | None = None, workers: int = 1,
+             progress: Callable[[ShardResult], None] | None = None, *,
+             executor: str = "local", ray_address: str | None = None,
+             shard_index: int | None = None, num_shards: int | None = None) -> list[ShardResult]:
+    """Make every shard of the build (or of ``shard_index`` of ``num_shards``) that is not done
+    yet; then, when the whole build exists, (re)write the card and the manifest. Returns the
+    per-shard results. ``workers`` > 1 or ``executor="ray"`` run shards in worker processes."""
+    out = out or cfg.out
+    b = build_plan(cfg, out)
+    jobs = select_units(b.jobs, shard_index, num_shards)
     results: list[ShardResult] = []
-    if workers <= 1:
+    todo = [j for j in jobs if not (out / "data" / f"{_name(j)}.parquet").exists()]
+    done = [ShardResult(_name(j), len(j.episodes), skipped_shard=True) for j in jobs
+            if j not in todo]
+    if not todo:
+        made = iter(done)
+    elif executor == "local" and min(workers, len(todo)) <= 1:  # in this process
         maker = _maker(world, cfg)
-        by_id = {e.event_id: e for e in events}
-        for job in jobs:
-            r = make_shard(world, maker, cfg, job, by_id, pools, out)
-            results.append(r)
-            if progress:
-                progress(r)
+        by_id = {e.event_id: e for e in b.events}
+        made = itertools.chain(done, (make_shard(world, maker, cfg, job, by_id, b.pools, out)
+                                      for job in todo))
     else:
-        # spawned (not forked) workers: a forked child of a process that has made a GL
-        # context hangs, and spawned ones start with fallgen's single-threaded BLAS
-        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
-                                 initializer=_init,
-                                 initargs=(str(world.root), cfg, str(out))) as ex:
-            for r in ex.map(_work, [(j, pools) for j in jobs]):
-                results.append(r)
-                if progress:
-                    progress(r)
-    finalize(out, cfg.file.read_text(), cfg.root_seed,
-                   {"generate": dataclasses.asdict(cfg.generate),
-                    "rehearse": dataclasses.asdict(cfg.rehearse)})
+        made = itertools.chain(done, parallel_map(_work, [(j, b.pools) for j in todo], _init,
+                                                  (str(world.root), cfg, str(out)),
+                                                  min(workers, len(todo)), executor,
+                                                  ray_address))
+    for r in made:
+        results.append(r)
+        if progress:
+            progress(r)
+    if not missing_shards(cfg, out, b):
+        finalize_build(cfg, out, b)
     return results
 
 
-__all__ = ["generate", "shard_jobs", "make_shard", "load_events"]
+def _name(job: ShardJob) -> str:
+    return shard_name(job.split, job.index, job.count)
+
+
+__all__ = ["generate", "shard_jobs", "make_shard", "load_events", "finalize_build",
+           "missing_shards", "build_plan"]

@@ -1,0 +1,142 @@
+"""Whole-build speed on this machine, extrapolated to the paper-size build. Prints one JSON line.
+
+    python bench/build_bench.py [--variants 4] [--episodes 60] [--workers 2]
+
+A slice of ``configs/full.toml`` (the same rehearsal and generation settings) over ``--variants``
+room variants (half kitchens, half study rooms, spread over the library) and ``--episodes``
+episodes, built with the real command line in fresh processes:
+
+1. ``fallgen rehearse`` with ``--workers`` processes: seconds per variant -> 64 variants;
+2. ``fallgen generate`` with 1 worker and with ``--workers`` (modal models warm: the first
+   generate run loads or solves them and is not timed): episodes per second, the speed-up of
+   ``--workers`` over 1 (goal >= 1.8x with 2), the same bytes from both, and the peak resident
+   memory of the largest process (goal < 1 GB per worker);
+3. the extrapolated full build (64 variants, 8000 episodes) = rehearsal + generation, against the
+   original's ~8 hours (ThreeDWorld, reported in the paper's repository; not runnable here).
+
+Modal models are solved once per machine (``fallgen assets modes``) and cached; the cold cost of
+that step is timed separately with ``--cold-modes`` (slow).
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import os
+import platform
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+ORIGINAL_S = 8 * 3600.0
+FULL_VARIANTS, FULL_EPISODES = 64, 8000
+
+
+def _measure(cmd: list[str], env: dict) -> tuple[float, float]:
+    """(wall seconds, peak RSS in MB of the largest process of the command's tree)."""
+    probe = ("import resource, subprocess, sys, time; t = time.perf_counter(); "
+             "r = subprocess.run(sys.argv[1:]); dt = time.perf_counter() - t; "
+             "print('BENCH', dt, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss); "
+             "sys.exit(r.returncode)")
+    out = subprocess.run([sys.executable, "-c", probe, *cmd], env=env, capture_output=True,
+                         text=True)
+    if out.returncode:
+        raise SystemExit(f"{' '.join(cmd)} failed:\n{out.stderr[-3000:]}")
+    m = re.search(r"BENCH (\S+) (\d+)", out.stdout)
+    return float(m[1]), int(m[2]) / 1024
+
+
+def _digest(root: Path) -> str:
+    h = hashlib.sha256()
+    for d in ("data", "media"):
+        for p in sorted((root / d).glob("*")):
+            h.update(p.name.encode() + p.read_bytes())
+    return h.hexdigest()
+
+
+def _rooms(n: int) -> list[str]:
+    from fallgen.world.library import load_world
+
+    vs = load_world().variants("*")
+    out = []
+    for kind in ("kitchen", "study"):
+        mine = [v.id for v in vs if v.kind == kind]
+        k = max(1, n // 2)
+        out += [mine[i * len(mine) // k] for i in range(k)]
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--variants", type=int, default=4)
+    ap.add_argument("--episodes", type=int, default=60)
+    ap.add_argument("--workers", type=int, default=os.cpu_count() or 2)
+    ap.add_argument("--cold-modes", action="store_true",
+                    help="also time `fallgen assets modes` into an empty cache")
+    args = ap.parse_args()
+    fallgen = [sys.executable, "-m", "fallgen"]
+    env = dict(os.environ)
+    rooms = _rooms(args.variants)
+    full = (REPO / "configs" / "full.toml").read_text()
+    n_val = n_test = max(2, args.episodes // 8)
+    cfg_text = full.replace('rooms = "*"', f'rooms = "{",".join(rooms)}"').replace(
+        "episodes = { train = 6000, validation = 1000, test = 1000 }",
+        f"episodes = {{ train = {args.episodes - n_val - n_test}, validation = {n_val}, "
+        f"test = {n_test} }}")
+    report: dict = {"bench": "build", "machine": platform.node(), "cpus": os.cpu_count(),
+                    "rooms": rooms, "episodes": args.episodes, "workers": args.workers}
+    with tempfile.TemporaryDirectory() as d:
+        d = Path(d)
+        cfg = d / "slice.toml"
+        cfg.write_text(cfg_text.replace('out = "build/full"', f'out = "{d / "a"}"'))
+        t, rss = _measure(fallgen + ["rehearse", "-c", str(cfg), "--workers",
+                                     str(args.workers)], env)
+        report["rehearse"] = {"wall_s": round(t, 1), "s_per_variant": round(t / len(rooms), 2),
+                              "peak_rss_mb": round(rss)}
+        (d / "b").mkdir()
+        os.symlink(d / "a" / "rehearsal", d / "b" / "rehearsal")
+        (d / "w").mkdir()
+        os.symlink(d / "a" / "rehearsal", d / "w" / "rehearsal")
+        # warm-up: loads (or solves and caches) every modal model these events need
+        _measure(fallgen + ["generate", "-c", str(cfg), "--out", str(d / "w"), "--workers",
+                            str(args.workers)], env)
+        t1, rss1 = _measure(fallgen + ["generate", "-c", str(cfg), "--workers", "1"], env)
+        tn, rssn = _measure(fallgen + ["generate", "-c", str(cfg), "--out", str(d / "b"),
+                                       "--workers", str(args.workers)], env)
+        from fallgen.dataset.manifest import read_manifest
+
+        made = sum(read_manifest(d / "a")["episodes"].values())
+        size = sum(p.stat().st_size for x in ("data", "media") for p in (d / "a" / x).glob("*"))
+        report["generate"] = {
+            "episodes_made": made,
+            "one_worker": {"wall_s": round(t1, 1), "episodes_per_s": round(made / t1, 3),
+                           "peak_rss_mb": round(rss1)},
+            f"{args.workers}_workers": {"wall_s": round(tn, 1),
+                                        "episodes_per_s": round(made / tn, 3),
+                                        "peak_rss_mb_largest_process": round(rssn)},
+            "speedup": round(t1 / tn, 2),
+            "same_bytes": _digest(d / "a") == _digest(d / "b"),
+            "bytes_per_episode": int(size / max(made, 1))}
+    if args.cold_modes:
+        with tempfile.TemporaryDirectory() as c:
+            t, _ = _measure(fallgen + ["assets", "modes", "--workers", str(args.workers)],
+                            {**env, "FALLGEN_CACHE": c})
+            report["modal_models_cold_s"] = round(t, 1)
+    rehearse_full = report["rehearse"]["s_per_variant"] * FULL_VARIANTS
+    gen_full = FULL_EPISODES / report["generate"][f"{args.workers}_workers"]["episodes_per_s"]
+    total = rehearse_full + gen_full + report.get("modal_models_cold_s", 0.0)
+    report["full_build_extrapolated"] = {
+        "rehearse_min": round(rehearse_full / 60, 1), "generate_min": round(gen_full / 60, 1),
+        "modal_models_min": round(report.get("modal_models_cold_s", 0.0) / 60, 1),
+        "total_min": round(total / 60, 1), "goal_min": 15,
+        "speedup_vs_original_8h": round(ORIGINAL_S / total, 1)}
+    print(json.dumps(report))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,50 @@
+"""Merge the JSON lines the benchmarks wrote (build/bench-*.json) into one report,
+build/bench.json, with the headline ratios on top. Used by `make bench`.
+
+    python bench/report.py build
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+
+def _last_json(path: Path) -> dict | None:
+    for line in reversed(path.read_text().splitlines()):
+        line = line.strip()
+        if line.startswith("{"):
+            return json.loads(line)
+    return None
+
+
+def main() -> None:
+    d = Path(sys.argv[1] if len(sys.argv) > 1 else "build")
+    parts = {p.stem.removeprefix("bench-"): _last_json(p)
+             for p in sorted(d.glob("bench-*.json"))}
+    parts = {k: v for k, v in parts.items() if v}
+    head: dict = {}
+    b = parts.get("build", {})
+    if b:
+        full = b["full_build_extrapolated"]
+        gen = b["generate"]
+        head["full_build_min_extrapolated"] = full["total_min"]
+        head["full_build_goal_min"] = full["goal_min"]
+        head["speedup_vs_original_8h"] = full["speedup_vs_original_8h"]
+        head["generate_speedup_workers"] = gen["speedup"]
+        head["generate_same_bytes_1_vs_n_workers"] = gen["same_bytes"]
+        head["bytes_per_episode"] = gen["bytes_per_episode"]
+    for name in ("impact", "room"):
+        r = parts.get(name, {})
+        head.update({f"{name}_{k}": v for k, v in r.items()
+                     if "ratio" in k or k.startswith("speedup")})
+    report = {"headline": head, "benchmarks": parts}
+    out = d / "bench.json"
+    out.write_text(json.dumps(report, indent=1) + "\n")
+    print(json.dumps(head, indent=1))
+    print(f"-> {out}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,100 @@
+"""Where the units of a phase (room variants to rehearse, shards to generate) run.
+
+- ``local``: a pool of long-lived spawned processes (default: all cores); each runs ``init`` once
+  (loads the world, the modal models, the renderer) and then takes whole units.
+- ``ray``: one Ray task per unit on an existing cluster (``ray.init(address=...)``) or a local
+  one (``address=None``). Each Ray worker process runs ``init`` once, the first time a task of
+  this build reaches it, and keeps the state for the next tasks. Install with
+  ``pip install 'fallgen[ray]'``; Ray is imported only here, only when asked for. On a cluster,
+  the data directory and the output directory must be the same paths on every node (a shared
+  file system).
+
+Output does not depend on the executor: a unit's result depends only on the unit (its seed),
+and BLAS is pinned to one thread in every worker.
+
+For many machines without Ray, ``select_units(units, index, count)`` gives the units of one
+Slurm array task or Kubernetes indexed job (``--shard-index I --num-shards N``).
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from typing import Any, TypeVar
+
+U = TypeVar("U")
+EXECUTORS = ("local", "ray")
+#: environment of every worker: one BLAS thread (bit-identical sums) and headless GL
+WORKER_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
+              "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+
+
+def select_units(units: Sequence[U], index: int | None, count: int | None) -> list[U]:
+    """Units ``index``, ``index + count``, ... (round robin, so every index gets a similar mix
+    of splits and room kinds); all of them when ``index`` is None."""
+    if index is None and count is None:
+        return list(units)
+    if index is None or count is None or not 0 <= index < count:
+        raise ValueError(f"--shard-index must be in [0, --num-shards) (got {index} of {count})")
+    return list(units[index::count])
+
+
+def parallel_map(work: Callable[[U], Any], units: Sequence[U], init: Callable[..., None],
+                 init_args: tuple, workers: int, executor: str = "local",
+                 ray_address: str | None = None) -> Iterator[Any]:
+    """``work(unit)`` for every unit in worker processes that each ran ``init(*init_args)``
+    once; yields results as units finish (``local``: in unit order). ``work`` and ``init``
+    must be module-level functions."""
+    if executor == "local":
+        with ProcessPoolExecutor(max(1, workers), mp_context=multiprocessing.get_context("spawn"),
+                                 initializer=_local_init, initargs=(init, init_args)) as ex:
+            yield from ex.map(work, units)
+    elif executor == "ray":
+        yield from _ray_map(work, units, init, init_args, workers, ray_address)
+    else:
+        raise ValueError(f"unknown executor {executor!r} (one of {', '.join(EXECUTORS)})")
+
+
+def _local_init(init: Callable[..., None], init_args: tuple) -> None:
+    os.environ.update(WORKER_ENV)
+    init(*init_args)
+
+
+_RAY_READY: dict[str, Any] = {}
+
+
+def _ray_task(init: Callable[..., None], init_args: tuple, work: Callable, unit: Any) -> Any:
+    key = repr((init.__module__, init.__qualname__, init_args))
+    if _RAY_READY.get("key") != key:  # first task of this build in this worker process
+        init(*init_args)
+        _RAY_READY["key"] = key
+    return work(unit)
+
+
+def _ray_map(work, units, init, init_args, workers, address) -> Iterator[Any]:
+    try:
+        import ray
+    except ImportError:
+        raise RuntimeError("--executor ray needs Ray: pip install 'fallgen[ray]'") from None
+    started = False
+    if not ray.is_initialized():
+        kw: dict[str, Any] = {"runtime_env": {"env_vars": WORKER_ENV}, "include_dashboard": False,
+                              "log_to_driver": False}
+        if address is None:
+            kw["num_cpus"] = max(1, workers)
+        ray.init(address=address, **kw)
+        started = True
+    try:
+        task = ray.remote(num_cpus=1, max_retries=2)(_ray_task)
+        pending = [task.remote(init, init_args, work, u) for u in units]
+        while pending:
+            done, pending = ray.wait(pending, num_returns=1)
+            yield ray.get(done[0])
+    finally:
+        if started:
+            ray.shutdown()
+
+
+__all__ = ["parallel_map", "select_units", "EXECUTORS"]
