@@ -132,3 +132,37 @@ def test_expert_uses_the_renderer_verdict_and_fails_cleanly():
     with pytest.raises(NoPath):
         expert(Pose(1.0, 1.0, 0), WALLED, target, ALWAYS, never)
     assert calls  # candidates were rendered and all refused
+
+
+def test_expert_plans_execute_exactly_in_cluttered_rooms():
+    """The planner checks forward moves with the simulator's own points (a disagreement once made
+    an expert walk into a table corner: blocked moves, object out of view). In random clutter,
+    every expert plan executes with every forward move taken and ends where it planned."""
+    rng = np.random.default_rng(4)
+    checked = 0
+    for _ in range(40):
+        occ = np.zeros((50, 40), bool)
+        occ[[0, -1], :] = occ[:, [0, -1]] = True
+        for _ in range(12):  # boxes and thin legs at off-grid places
+            x, y = rng.integers(2, 46), rng.integers(2, 36)
+            occ[x:x + rng.integers(1, 5), y:y + rng.integers(1, 5)] = True
+        g = grid_from(occ)
+        free = np.argwhere(g.clearance >= 0.3)
+        if len(free) < 2:
+            continue
+        a, b = free[rng.choice(len(free), 2, replace=False)]
+        start = Pose(float((a[0] + rng.uniform(0.3, 0.7)) * 0.1),
+                     float((a[1] + rng.uniform(0.3, 0.7)) * 0.1), int(rng.integers(12)))
+        target = ((b[0] + 0.5) * 0.1, (b[1] + 0.5) * 0.1, 0.4)
+        try:
+            e = expert(start, g, target, ALWAYS, ALWAYS)
+        except NoPath:
+            continue
+        pose = start
+        for act in e.plan.actions:
+            pose, moved = step(pose, act, g)
+            assert moved or act in (UP, DOWN), "a planned move was blocked"
+        assert (pose.x, pose.y, pose.heading) == (e.plan.goal.x, e.plan.goal.y,
+                                                  e.plan.goal.heading)
+        checked += 1
+    assert checked >= 20

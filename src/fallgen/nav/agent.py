@@ -68,15 +68,27 @@ class Pose:
         return np.array([self.x, self.y])
 
 
+#: unit vectors of the 12 headings (the expert's planner uses the same table: same arithmetic)
+HEADING_VECTORS = np.array([[math.cos(k * math.radians(TURN_DEG)),
+                             math.sin(k * math.radians(TURN_DEG))] for k in range(HEADINGS)])
+#: a forward move is checked at this many evenly spaced points (every 5 cm, both ends)
+STEP_SAMPLES = int(round(STEP_M / 0.05)) + 1
+_FRACTIONS = np.linspace(0.0, 1.0, STEP_SAMPLES)
+
+
 def heading_vector(heading: int) -> np.ndarray:
-    a = (heading % HEADINGS) * math.radians(TURN_DEG)
-    return np.array([math.cos(a), math.sin(a)])
+    return HEADING_VECTORS[heading % HEADINGS]
+
+
+def step_points(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(..., STEP_SAMPLES, 2) points checked along forward moves from ``a`` to ``b`` (..., 2):
+    one definition for the simulator and the planner, so that they never disagree."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    return a[..., None, :] + _FRACTIONS[:, None] * (b - a)[..., None, :]
 
 
 def segment_free(grid: OccupancyGrid, a: np.ndarray, b: np.ndarray, radius_m: float) -> bool:
-    n = max(2, int(math.ceil(np.linalg.norm(b - a) / 0.05)) + 1)
-    pts = a[None, :] + np.linspace(0, 1, n)[:, None] * (b - a)[None, :]
-    return bool(grid.free_for(pts, radius_m).all())
+    return bool(grid.free_for(step_points(a, b), radius_m).all())
 
 
 def step(pose: Pose, action: int, grid: OccupancyGrid, spec: AgentSpec = AgentSpec()

@@ -26,8 +26,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fallgen.nav.agent import (DOWN, FORWARD, FOUND, HEADINGS, LEFT, RIGHT, STEP_M,
-                               SUCCESS_DISTANCE_M, TURN_DEG, UP, AgentSpec, Pose)
+from fallgen.nav.agent import (DOWN, FORWARD, FOUND, HEADING_VECTORS, HEADINGS, LEFT, RIGHT,
+                               STEP_M, SUCCESS_DISTANCE_M, TURN_DEG, UP, AgentSpec, Pose,
+                               step_points)
 from fallgen.nav.occupancy import OccupancyGrid
 
 BIN_M = 0.05
@@ -72,8 +73,7 @@ def _search(start: Pose, grid: OccupancyGrid, target, spec: AgentSpec, move_cost
     px, py = np.zeros(size), np.zeros(size)
     parent = np.full(size, -1, np.int64)
     act = np.full(size, -1, np.int8)
-    dirs = np.array([[math.cos(math.radians(TURN_DEG * k)), math.sin(math.radians(TURN_DEG * k))]
-                     for k in range(HEADINGS)])
+    dirs = HEADING_VECTORS
     target = np.asarray(target, float)
     renders = 0
 
@@ -125,10 +125,9 @@ def _search(start: Pose, grid: OccupancyGrid, target, spec: AgentSpec, move_cost
         # expand: forward (collision-checked along the segment) and the two turns
         x0, y0 = px[states], py[states]
         x1, y1 = x0 + STEP_M * dirs[k, 0], y0 + STEP_M * dirs[k, 1]
-        f = np.linspace(0, 1, 7)
-        pts = np.stack([x0[:, None] + f * (x1 - x0)[:, None],
-                        y0[:, None] + f * (y1 - y0)[:, None]], -1).reshape(-1, 2)
-        ok = grid.free_for(pts, spec.radius_m).reshape(len(states), -1).all(1)
+        # the simulator's own check of a forward move (nav.agent.step_points)
+        pts = step_points(np.column_stack([x0, y0]), np.column_stack([x1, y1]))
+        ok = grid.free_for(pts.reshape(-1, 2), spec.radius_m).reshape(len(states), -1).all(1)
         succ = [(states[ok], x1[ok], y1[ok], k[ok], FORWARD, move_cost),
                 (states, x0, y0, (k + 1) % HEADINGS, LEFT, turn_cost),
                 (states, x0, y0, (k - 1) % HEADINGS, RIGHT, turn_cost)]
