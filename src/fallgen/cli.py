@@ -98,7 +98,8 @@ def _workers(n: int | None) -> int:
     return n if n is not None else (os.cpu_count() or 1)
 
 
-def _parallel(executor: str, shard_index, num_shards) -> dict:
+def _parallel(executor: str, shard_index, num_shards, ray_address: str | None) -> dict:
+    """The keyword arguments that say where a phase runs (checked)."""
     from fallgen.pipeline.executor import EXECUTORS
 
     if executor not in EXECUTORS:
@@ -108,11 +109,12 @@ def _parallel(executor: str, shard_index, num_shards) -> dict:
             (shard_index is not None and shard_index >= num_shards):
         raise InputError("<command line>", "--shard-index", "needs --num-shards N and "
                          "0 <= I < N")
-    return {"executor": executor, "shard_index": shard_index, "num_shards": num_shards}
+    return {"executor": executor, "shard_index": shard_index, "num_shards": num_shards,
+            "ray_address": ray_address}
 
 
 def _run_rehearsal(cfg, world, rooms: str | None, workers: int, out: Path | None, force: bool,
-                   ray_address: str | None, parallel: dict) -> None:
+                   parallel: dict) -> None:
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, \
         TimeElapsedColumn
 
@@ -132,7 +134,7 @@ def _run_rehearsal(cfg, world, rooms: str | None, workers: int, out: Path | None
             bar.update(task, advance=1, description=f"{vid}: {note}")
 
         stats = run(world, cfg, [v.id for v in vs], out=dest, workers=workers, force=force,
-                    progress=tick, ray_address=ray_address, **parallel)
+                    progress=tick, **parallel)
     totals = summarize(stats)
     for title, table in (("zone kind", totals["zone_kind"]), ("category", totals["category"])):
         t = Table(title=f"rehearsal by {title}")
@@ -149,7 +151,7 @@ def _run_rehearsal(cfg, world, rooms: str | None, workers: int, out: Path | None
 
 
 def _run_generation(cfg, config: Path, world, workers: int, out: Path | None,
-                    ray_address: str | None, parallel: dict) -> None:
+                    parallel: dict) -> None:
     from collections import Counter
 
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, \
@@ -159,10 +161,10 @@ def _run_generation(cfg, config: Path, world, workers: int, out: Path | None,
     from fallgen.pipeline.generate import build_plan, generate as run, missing_shards
 
     try:
-        jobs = build_plan(cfg, out).jobs
+        b = build_plan(cfg, out)
     except FileNotFoundError as e:
         raise InputError(config, "build.out", str(e)) from None
-    n_shards = len(select_units(jobs, parallel["shard_index"], parallel["num_shards"]))
+    n_shards = len(select_units(b.jobs, parallel["shard_index"], parallel["num_shards"]))
     skips: Counter = Counter()
     timings: Counter = Counter()
     made = 0
@@ -178,13 +180,13 @@ def _run_generation(cfg, config: Path, world, workers: int, out: Path | None,
             bar.update(task, advance=1, description=f"{r.name}: " + (
                 "done before" if r.skipped_shard else f"{r.episodes} episodes"))
 
-        run(world, cfg, out, workers=workers, progress=tick, ray_address=ray_address, **parallel)
+        run(world, cfg, out, workers=workers, progress=tick, b=b, **parallel)
     dest = out or cfg.out
     size = sum(p.stat().st_size for d in ("data", "media") for p in (dest / d).glob("*")
                if p.is_file())
     console.print(f"{made} episodes in {n_shards} shards -> {dest}/data, {dest}/media: "
                   f"{size / 1e6:.1f} MB, {size / max(made, 1) / 1e3:.0f} kB per episode")
-    left = missing_shards(cfg, dest)
+    left = missing_shards(cfg, dest, b)
     console.print(f"card {dest}/README.md, manifest {dest}/manifest.json" if not left else
                   f"{len(left)} shards of the build still missing (other shard indices); "
                   f"`fallgen finalize -c {config}` once they exist")
@@ -225,9 +227,9 @@ def rehearse(
 ) -> None:
     """Rehearsal phase: drop objects into every fall zone, keep those that settle inside it
     (one Parquet file per room variant; variants already done are kept)."""
-    parallel = _parallel(executor, shard_index, num_shards)
+    parallel = _parallel(executor, shard_index, num_shards, ray_address)
     _run_rehearsal(_config(config), _world(data_dir), rooms, _workers(workers), out, force,
-                   ray_address, parallel)
+                   parallel)
 
 
 @app.command()
@@ -247,9 +249,9 @@ def generate(
     """Generation phase: rehearsed falls -> episodes (spawn, binaural audio, first view, maps,
     expert trajectory), written as Parquet + HDF5 shards; finished shards are kept (resume).
     The card and manifest are written when the last shard of the build exists."""
-    parallel = _parallel(executor, shard_index, num_shards)
+    parallel = _parallel(executor, shard_index, num_shards, ray_address)
     _run_generation(_config(config, frames), config, _world(data_dir), _workers(workers), out,
-                    ray_address, parallel)
+                    parallel)
 
 
 @app.command()
@@ -263,10 +265,10 @@ def build(
 ) -> None:
     """Both phases on this machine (or a Ray cluster): rehearse every room variant of the
     config, then generate every shard, card and manifest. Reruns resume."""
-    parallel = _parallel(executor, None, None)
+    parallel = _parallel(executor, None, None, ray_address)
     cfg, world = _config(config), _world(data_dir)
-    _run_rehearsal(cfg, world, None, _workers(workers), out, False, ray_address, parallel)
-    _run_generation(cfg, config, world, _workers(workers), out, ray_address, parallel)
+    _run_rehearsal(cfg, world, None, _workers(workers), out, False, parallel)
+    _run_generation(cfg, config, world, _workers(workers), out, parallel)
 
 
 @app.command()

@@ -33,18 +33,25 @@ CITATION = """\
 }"""
 
 
-def shard_kinds(root: Path) -> dict[str, dict[str, list[str]]]:
-    """split -> room kind -> shard files (relative, sorted); raises ValueError for a shard that
-    mixes room kinds."""
+def _shard_rows(root: Path) -> list[tuple[str, list[dict]]]:
+    """(file relative to root, its rows' split / room_kind / room_variant) per data shard."""
+    cols = ["split", "room_kind", "room_variant"]
+    return [(f"data/{p.name}", pq.read_table(p, columns=cols).to_pylist()
+             if pq.read_metadata(p).num_rows else [])
+            for p in sorted((root / "data").glob("*.parquet"))]
+
+
+def shard_kinds(shards: list[tuple[str, list[dict]]]) -> dict[str, dict[str, list[str]]]:
+    """split -> room kind -> shard files (sorted); raises ValueError for a shard that mixes
+    room kinds."""
     out: dict[str, dict[str, list[str]]] = {}
-    for p in sorted((root / "data").glob("*.parquet")):
-        kinds = set(pq.read_table(p, columns=["room_kind"]).column(0).to_pylist()) \
-            if pq.read_metadata(p).num_rows else set()
+    for f, rows in shards:
+        kinds = {r["room_kind"] for r in rows}
         if len(kinds) > 1:
-            raise ValueError(f"{p}: room_kind mixes {sorted(kinds)} (one kind per shard)")
-        split = p.name.split("-")[0]
+            raise ValueError(f"{f}: room_kind mixes {sorted(kinds)} (one kind per shard)")
+        split = f.split("/")[-1].split("-")[0]
         for k in kinds:
-            out.setdefault(split, {}).setdefault(k, []).append(f"data/{p.name}")
+            out.setdefault(split, {}).setdefault(k, []).append(f)
     return out
 
 
@@ -72,9 +79,9 @@ def _table(head: list[str], rows: list[list]) -> list[str]:
 def write_card(root: Path, config_text: str, root_seed: int, versions: dict[str, str],
                settings: dict) -> Path:
     root = Path(root)
-    files = shard_kinds(root)
-    rows = [r for p in sorted((root / "data").glob("*.parquet")) if pq.read_metadata(p).num_rows
-            for r in pq.read_table(p, columns=["split", "room_kind", "room_variant"]).to_pylist()]
+    shards = _shard_rows(root)
+    files = shard_kinds(shards)
+    rows = [r for _, rs in shards for r in rs]
     by = Counter((r["split"], r["room_kind"]) for r in rows)
     kinds = sorted({r["room_kind"] for r in rows})
     n = len(rows)

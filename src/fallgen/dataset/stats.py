@@ -18,6 +18,7 @@ import numpy as np
 import pyarrow.parquet as pq
 
 from fallgen.config import SPLITS
+from fallgen.dataset.writer import shard_meta
 
 COLUMNS = ["episode_id", "split", "room_kind", "room_variant", "category", "audio_material",
            "zone_kind", "expert_actions", "expert_path_m", "shortest_path_m",
@@ -50,8 +51,7 @@ def stats(root: str | Path) -> dict:
         t = pq.read_table(p, columns=COLUMNS) if pq.read_metadata(p).num_rows else None
         if t is not None:
             rows += t.to_pylist()
-        meta = json.loads((pq.read_schema(p).metadata or {}).get(b"fallgen", b"{}"))
-        dropped += meta.get("dropped", [])
+        dropped += (shard_meta(pq.read_schema(p)) or {}).get("dropped", [])
     events: dict[str, str] = {}
     for p in sorted((root / "rehearsal").glob("*.parquet")):
         t = pq.read_table(p, columns=["event_id", "zone_kind"])
@@ -85,10 +85,7 @@ def stats(root: str | Path) -> dict:
     rehearsed = Counter(events.values())
     used = Counter(r["zone_kind"] for r in rows)
     skipped_kind = Counter(events.get(e, "?") for e, _ in skips)
-    tried_kind = Counter()
-    for r in rows:
-        tried_kind[r["zone_kind"]] += 1
-    tried_kind.update(skipped_kind)
+    tried_kind = used + skipped_kind
     n_ev = sum(rehearsed.values()) or 1
     n_ep = len(rows) or 1
     out["bias"] = {k: {"rehearsed_events": rehearsed[k],

@@ -22,6 +22,7 @@ import pyarrow.parquet as pq
 from fallgen.config import SPLITS
 from fallgen.dataset.manifest import MANIFEST, listed_files, sha256
 from fallgen.dataset.schema import REQUIRED
+from fallgen.dataset.writer import shard_meta
 
 SHARD = re.compile(r"^(?P<split>[a-z_]+)-(?P<i>\d{5})-of-(?P<n>\d{5})\.(parquet|h5)$")
 
@@ -85,8 +86,7 @@ def validate(root: str | Path) -> list[str]:
             problems.append(f"{p}: missing columns {', '.join(missing)}")
             continue
         try:
-            meta = json.loads((t.schema.metadata or {})[b"fallgen"])
-            dropped += [d[0] for d in meta["dropped"]]
+            dropped += [d[0] for d in shard_meta(t.schema)["dropped"]]
         except (KeyError, ValueError, TypeError, IndexError):
             problems.append(f"{p}: no fallgen metadata (split, shard, dropped episodes)")
         rows = t.to_pylist()

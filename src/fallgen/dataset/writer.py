@@ -27,6 +27,15 @@ from fallgen.dataset.schema import COLUMNS
 from fallgen.nav.agent import ACTIONS
 
 GZIP = 4
+#: key of the shard's own metadata (split, shard, num_shards, dropped) in the Parquet schema
+META_KEY = "fallgen"
+
+
+def shard_meta(schema: pa.Schema) -> dict | None:
+    """The metadata :func:`write_shard` put in a shard's schema; None when there is none
+    (a ValueError when it is not JSON)."""
+    raw = (schema.metadata or {}).get(META_KEY.encode())
+    return None if raw is None else json.loads(raw)
 
 
 def shard_name(split: str, i: int, n: int) -> str:
@@ -110,7 +119,7 @@ def write_shard(root: Path, split: str, i: int, n: int, episodes: list, rows: li
     os.replace(tmp, media)
     table = pa.Table.from_pylist(rows) if rows else pa.table({"episode_id": pa.array([], pa.int64())})
     meta = {"split": split, "shard": i, "num_shards": n, "dropped": [list(d) for d in dropped]}
-    table = table.replace_schema_metadata({"fallgen": json.dumps(meta, sort_keys=True)})
+    table = table.replace_schema_metadata({META_KEY: json.dumps(meta, sort_keys=True)})
     tmp = data.with_name(data.name + ".tmp")
     pq.write_table(table, tmp, compression="zstd")
     os.replace(tmp, data)

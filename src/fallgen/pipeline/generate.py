@@ -62,6 +62,14 @@ class ShardJob:
     room_kind: str
     episodes: tuple[PlannedEpisode, ...]
 
+    @property
+    def name(self) -> str:
+        return shard_name(self.split, self.index, self.count)
+
+    def done(self, out: Path) -> bool:
+        """Made already: its Parquet file (written last, atomically) exists."""
+        return (out / "data" / f"{self.name}.parquet").exists()
+
 
 def shard_jobs(planned: list[PlannedEpisode], per_shard: int) -> list[ShardJob]:
     """Each split's episodes in shards of ``per_shard``, one room kind per shard (so the
@@ -89,12 +97,9 @@ def _maker(world: World, cfg: BuildConfig) -> EpisodeMaker:
 def make_shard(world: World, maker: EpisodeMaker, cfg: BuildConfig, job: ShardJob,
                events: dict[str, FallEvent], pools: dict[tuple[str, str], list[str]], out: Path
                ) -> ShardResult:
-    name = shard_name(job.split, job.index, job.count)
+    """Make and write one shard (the caller skips shards that are done: ``job.done(out)``)."""
+    name = job.name
     res = ShardResult(name, 0)
-    if (out / "data" / f"{name}.parquet").exists():
-        res.skipped_shard = True
-        res.episodes = len(job.episodes)
-        return res
     episodes, rows, dropped = [], [], []
     for p in job.episodes:
         pool = pools[(p.split, p.room_kind)]
@@ -156,8 +161,7 @@ def build_plan(cfg: BuildConfig, out: Path | None = None) -> Build:
 def missing_shards(cfg: BuildConfig, out: Path | None = None, b: Build | None = None
                    ) -> list[str]:
     out = out or cfg.out
-    jobs = (b or build_plan(cfg, out)).jobs
-    return [_name(j) for j in jobs if not (out / "data" / f"{_name(j)}.parquet").exists()]
+    return [j.name for j in (b or build_plan(cfg, out)).jobs if not j.done(out)]
 
 
 def finalize_build(cfg: BuildConfig, out: Path | None = None, b: Build | None = None) -> Path:
@@ -177,17 +181,19 @@ def finalize_build(cfg: BuildConfig, out: Path | None = None, b: Build | None = 
 def generate(world: World, cfg: BuildConfig, out: Path | None = None, workers: int = 1,
              progress: Callable[[ShardResult], None] | None = None, *,
              executor: str = "local", ray_address: str | None = None,
-             shard_index: int | None = None, num_shards: int | None = None) -> list[ShardResult]:
+             shard_index: int | None = None, num_shards: int | None = None,
+             b: Build | None = None) -> list[ShardResult]:
     """Make every shard of the build (or of ``shard_index`` of ``num_shards``) that is not done
     yet; then, when the whole build exists, (re)write the card and the manifest. Returns the
-    per-shard results. ``workers`` > 1 or ``executor="ray"`` run shards in worker processes."""
+    per-shard results. ``workers`` > 1 or ``executor="ray"`` run shards in worker processes.
+    ``b``: the build's plan when the caller has it already (it reads every rehearsal file)."""
     out = out or cfg.out
-    b = build_plan(cfg, out)
+    b = b or build_plan(cfg, out)
     jobs = select_units(b.jobs, shard_index, num_shards)
     results: list[ShardResult] = []
-    todo = [j for j in jobs if not (out / "data" / f"{_name(j)}.parquet").exists()]
-    done = [ShardResult(_name(j), len(j.episodes), skipped_shard=True) for j in jobs
-            if j not in todo]
+    todo = [j for j in jobs if not j.done(out)]
+    done = [ShardResult(j.name, len(j.episodes), skipped_shard=True) for j in jobs
+            if j.done(out)]
     if not todo:
         made = iter(done)
     elif executor == "local" and min(workers, len(todo)) <= 1:  # in this process
@@ -207,10 +213,6 @@ def generate(world: World, cfg: BuildConfig, out: Path | None = None, workers: i
     if not missing_shards(cfg, out, b):
         finalize_build(cfg, out, b)
     return results
-
-
-def _name(job: ShardJob) -> str:
-    return shard_name(job.split, job.index, job.count)
 
 
 __all__ = ["generate", "shard_jobs", "make_shard", "load_events", "finalize_build",
