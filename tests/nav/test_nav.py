@@ -50,6 +50,33 @@ def test_room_occupancy_marks_furniture_and_keeps_aisles(world):
     assert g.clearance[0].max() <= 0.1  # next to the west wall
 
 
+def test_room_layer_plus_objects_is_the_whole_grid(world):
+    """The per-variant room layer (room_samples) with only the objects rasterised on top gives
+    exactly the grid of rasterising everything, for scenes with objects on the floor."""
+    from fallgen.nav.occupancy import room_samples
+    from fallgen.world.scene import PlacedObject
+
+    rng = np.random.default_rng(0)
+    for vid in ("kitchen_galley-l1-m1", "study_office-l2-m1"):
+        v = world.variant(vid)
+        objs = [PlacedObject(f"d{k}", world.categories.instance("toaster", "steel", "metal"),
+                             (float(rng.uniform(0.5, v.size_m[0] - 0.5)),
+                              float(rng.uniform(0.5, v.size_m[1] - 0.5)), 0.2), free=False)
+                for k in range(4)]
+        scene = build_scene(v, world.materials, objs)
+        d = scene.data()
+        import mujoco
+
+        mujoco.mj_forward(scene.model, d)
+        whole = occupancy(scene, d, band_high_m=1.0)
+        layered = occupancy(scene, d, band_high_m=1.0,
+                            static=room_samples(scene, d, band_high_m=1.0))
+        bare = occupancy(scene, d, band_high_m=1.0, skip=("agent", "obj:"))
+        assert np.array_equal(whole.occupied, layered.occupied)
+        assert np.array_equal(whole.clearance, layered.clearance)
+        assert (whole.occupied & ~bare.occupied).any()  # the objects did add cells
+
+
 def test_rotations_are_exact_and_tilt_is_limited():
     p = Pose(1.0, 1.0, 0)
     for _ in range(12):

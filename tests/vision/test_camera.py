@@ -60,3 +60,47 @@ def test_depth_is_metres_along_the_view_axis(cam_scene):
     dist = mujoco.mj_ray(cam.scene.model, d, eye, np.array([1.0, 0.0, 0.0]), None, 1, -1, geomid)
     centre = v.depth[148:152, 148:152].mean()
     assert centre == pytest.approx(dist, rel=0.02)
+
+
+def test_frustum_cull_never_hides_a_visible_object(cam_scene):
+    """pixels_of skips the render only when the object's boxes lie wholly outside the view:
+    over random poses (all headings and tilts), a culled pose always renders 0 pixels of the
+    object, and most poses facing away are culled."""
+    cam, d = cam_scene
+    rng = np.random.default_rng(3)
+    culled = rendered_zero = 0
+    for _ in range(120):
+        pose = Pose(float(rng.uniform(0.5, 6.0)), float(rng.uniform(0.5, 3.0)),
+                    int(rng.integers(12)), int(rng.choice([-60, -30, 0, 30])))
+        px = cam.render(d, pose, "segmentation").pixels_of("obj:target")
+        if cam.outside_view(d, pose, "obj:target"):
+            culled += 1
+            assert px == 0, pose
+        rendered_zero += px == 0
+        assert cam.pixels_of(d, pose) == px
+    assert culled > 0.5 * rendered_zero > 0
+    assert cam.outside_view(d, Pose(2.5, 1.8, 0, 0), "obj:nothing")
+
+
+def test_small_offscreen_buffer_gives_the_same_pixels(world):
+    """The camera shrinks the offscreen buffer to the image and drops the unused shadow map:
+    the views are those of MuJoCo's default renderer set-up."""
+    v = world.variant(VARIANT)
+    inst = world.categories.instance("cup", "mug", "ceramic")
+    views = []
+    for shrink in (False, True):
+        scene = build_scene(v, world.materials, [PlacedObject("target", inst, (4.0, 1.8, 0.05))])
+        d = scene.data()
+        mujoco.mj_forward(scene.model, d)
+        cam = EgoCamera(scene, {"target": "cup"})
+        if not shrink:  # a renderer on the model's default buffer, for reference
+            m = scene.model
+            m.vis.global_.offwidth, m.vis.global_.offheight = 640, 480
+            m.vis.quality.shadowsize = 4096
+            cam.renderer.close()
+            cam.renderer = mujoco.Renderer(m, 300, 300)
+        views.append([cam.render(d, Pose(2.5, 1.8, k, t)) for k in (0, 1, 11) for t in (-30, 0)])
+        cam.close()
+    for a, b in zip(*views):
+        assert np.array_equal(a.rgb, b.rgb) and np.array_equal(a.depth, b.depth)
+        assert np.array_equal(a.instance, b.instance)

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import hashlib
 import io
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -24,6 +23,7 @@ from fallgen.atomic import write_bytes
 from fallgen.audio.fem import lattice, solve_modes
 from fallgen.audio.shells import shell_modes
 from fallgen.audio.voxelize import VoxelSolid, voxel_size, voxelize
+from fallgen.cache import cache_root
 from fallgen.world.shell import ThinShell
 
 E_REF = 1.0e10  # Pa
@@ -180,9 +180,7 @@ def cache_key(vertices: np.ndarray, faces: np.ndarray, nu: float,
 
 
 def default_cache_dir() -> Path:
-    env = os.environ.get("FALLGEN_CACHE")
-    base = Path(env) if env else Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "fallgen"
-    return base / "modes"
+    return cache_root() / "modes"
 
 
 def _save(path: Path, m: ModalModel) -> None:

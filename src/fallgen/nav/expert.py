@@ -91,11 +91,16 @@ def _search(start: Pose, grid: OccupancyGrid, target, spec: AgentSpec, move_cost
         c = min(buckets) if buckets else None
         # candidates whose total is below every unexpanded cost are final: confirm the
         # cheapest by rendering (a refused one is dropped and the search goes on)
-        while found and (c is None or min(found)[0] < c) and result is None:
+        while found and (c is None or found[0][0] < c) and result is None:
             total, s, t = heapq.heappop(found)
             if renders >= MAX_RENDER_CHECKS:
                 found.clear()
                 break
+            # the line of sight is checked only now, for candidates in cost order (ray casts
+            # for every candidate found would cost more than the whole search)
+            if not line_of_sight(Pose(float(px[s]), float(py[s]), int(s % HEADINGS),
+                                      start.tilt_deg)):
+                continue
             goal = Pose(float(px[s]), float(py[s]), int(s % HEADINGS),
                         start.tilt_deg + t * spec.tilt_step_deg)
             renders += 1
@@ -119,7 +124,7 @@ def _search(start: Pose, grid: OccupancyGrid, target, spec: AgentSpec, move_cost
             s = int(states[i])
             pose = Pose(float(px[s]), float(py[s]), int(k[i]), start.tilt_deg)
             t = tilt_steps(pose, target, spec)
-            if t is None or not line_of_sight(pose):
+            if t is None:
                 continue
             heapq.heappush(found, (c + abs(t) * tilt_cost + 1, s, t))
         # expand: forward (collision-checked along the segment) and the two turns

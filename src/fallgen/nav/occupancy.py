@@ -62,12 +62,13 @@ def geom_box_corners(model: mujoco.MjModel, data: mujoco.MjData, g: int) -> np.n
 
 
 def _footprints(scene: Scene, data: mujoco.MjData, low: float, high: float,
-                skip: tuple[str, ...]) -> list[np.ndarray]:
+                keep) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """(hull equations, xy min, xy max) of every collision geom in the band that ``keep(owner)``."""
     m = scene.model
     out = []
     for g in range(m.ngeom):
         owner = scene.geom_owner[g]
-        if owner in ("floor", "ceiling") or owner.startswith(skip):
+        if owner in ("floor", "ceiling") or not keep(owner):
             continue
         if m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0:
             continue  # visual-only geoms: their collision twins count
@@ -75,36 +76,72 @@ def _footprints(scene: Scene, data: mujoco.MjData, low: float, high: float,
         if corners[:, 2].max() < low or corners[:, 2].min() > high:
             continue
         xy = corners[:, :2]
+        lo, hi = xy.min(0), xy.max(0)
         try:
-            hull = ConvexHull(xy)
-            out.append(hull.equations)  # rows (a, b, c): a x + b y + c <= 0 inside
+            eq = ConvexHull(xy).equations  # rows (a, b, c): a x + b y + c <= 0 inside
         except Exception:  # degenerate (a zero-width geom): its segment's bounding box
-            lo, hi = xy.min(0), xy.max(0)
-            out.append(np.array([[-1, 0, lo[0]], [1, 0, -hi[0]], [0, -1, lo[1]], [0, 1, -hi[1]]],
-                                float))
+            eq = np.array([[-1, 0, lo[0]], [1, 0, -hi[0]], [0, -1, lo[1]], [0, 1, -hi[1]]], float)
+        out.append((eq, lo, hi))
     return out
+
+
+#: Sample points per cell along each axis (3 x 3 per cell).
+SUB = 3
+
+
+def _samples(n: int, resolution: float) -> np.ndarray:
+    """Coordinates of the SUB sample points of each of ``n`` cells along an axis, cell-major."""
+    sub = (np.arange(SUB) + 0.5) / SUB
+    return ((np.arange(n)[:, None] + sub[None, :]) * resolution).ravel()
+
+
+def footprint_samples(scene: Scene, data: mujoco.MjData, resolution: float, band_low_m: float,
+                      band_high_m: float, keep) -> np.ndarray:
+    """(SUB nx, SUB ny) bool: the sample points covered by the footprint of a geom in the band
+    whose owner ``keep(owner)``. Each footprint is tested only on the samples inside its
+    bounding box (an OR over geoms: the order does not matter)."""
+    lx, ly = scene.variant.size_m[:2]
+    nx, ny = int(np.ceil(lx / resolution - 1e-9)), int(np.ceil(ly / resolution - 1e-9))
+    xs, ys = _samples(nx, resolution), _samples(ny, resolution)
+    hit = np.zeros((len(xs), len(ys)), bool)
+    for eq, lo, hi in _footprints(scene, data, band_low_m, band_high_m, keep):
+        # samples within the box, with a sample of slack each side (the test below decides)
+        i0, i1 = np.searchsorted(xs, lo[0] - 1e-6) - 1, np.searchsorted(xs, hi[0] + 1e-6) + 1
+        j0, j1 = np.searchsorted(ys, lo[1] - 1e-6) - 1, np.searchsorted(ys, hi[1] + 1e-6) + 1
+        i0, j0 = max(i0, 0), max(j0, 0)
+        if i0 >= i1 or j0 >= j1:
+            continue
+        x, y = xs[i0:i1, None], ys[None, j0:j1]
+        inside = np.ones((len(x), y.shape[1]), bool)
+        for a, b, c in eq:
+            inside &= x * a + y * b + c <= 1e-9
+        hit[i0:i1, j0:j1] |= inside
+    return hit
 
 
 def occupancy(scene: Scene, data: mujoco.MjData | None = None, resolution: float = 0.1,
               band_low_m: float = 0.03, band_high_m: float = 1.2,
-              skip: tuple[str, ...] = ("agent",)) -> OccupancyGrid:
+              skip: tuple[str, ...] = ("agent",), static: np.ndarray | None = None
+              ) -> OccupancyGrid:
     """The occupancy grid of ``scene`` (geoms at their positions in ``data``; default: the
     compiled positions). Geoms whose owner starts with one of ``skip`` are ignored (the agent
-    itself; pass ``("agent", "obj:")`` to ignore loose objects too)."""
+    itself; pass ``("agent", "obj:")`` to ignore loose objects too).
+
+    ``static``: the samples of the room itself (:func:`footprint_samples` of every owner but
+    the ``obj:`` objects, the same band and resolution), computed once per room variant; only
+    the objects are then rasterised on top (the same grid as without it)."""
     if data is None:
         data = mujoco.MjData(scene.model)
         mujoco.mj_forward(scene.model, data)
-    lx, ly = scene.variant.size_m[:2]
-    nx, ny = int(np.ceil(lx / resolution - 1e-9)), int(np.ceil(ly / resolution - 1e-9))
-    sub = (np.arange(3) + 0.5) / 3
-    ii, jj, si, sj = np.meshgrid(np.arange(nx), np.arange(ny), sub, sub, indexing="ij")
-    px = ((ii + si) * resolution).ravel()
-    py = ((jj + sj) * resolution).ravel()
-    hit = np.zeros(px.shape, bool)
-    for eq in _footprints(scene, data, band_low_m, band_high_m, skip):
-        hit |= (px[:, None] * eq[None, :, 0] + py[:, None] * eq[None, :, 1]
-                + eq[None, :, 2] <= 1e-9).all(1)
-    occ = hit.reshape(nx, ny, 9).any(-1)
+    if static is None:
+        hit = footprint_samples(scene, data, resolution, band_low_m, band_high_m,
+                                lambda o: not o.startswith(skip))
+    else:
+        objects = footprint_samples(scene, data, resolution, band_low_m, band_high_m,
+                                    lambda o: o.startswith("obj:") and not o.startswith(skip))
+        hit = static | objects
+    nx, ny = hit.shape[0] // SUB, hit.shape[1] // SUB
+    occ = hit.reshape(nx, SUB, ny, SUB).any(axis=(1, 3))
     # the room's walls: pad with occupied cells, so clearance also counts the walls
     padded = np.pad(occ, 1, constant_values=True)
     dist = distance_transform_edt(~padded)[1:-1, 1:-1] * resolution
@@ -112,3 +149,11 @@ def occupancy(scene: Scene, data: mujoco.MjData | None = None, resolution: float
     clearance = np.maximum(dist - resolution / 2, 0.0)
     clearance[occ] = 0.0
     return OccupancyGrid(occ, resolution, clearance)
+
+
+def room_samples(scene: Scene, data: mujoco.MjData, resolution: float = 0.1,
+                 band_low_m: float = 0.03, band_high_m: float = 1.2) -> np.ndarray:
+    """The ``static`` layer of :func:`occupancy` for ``scene``'s room (everything but the
+    agent and the ``obj:`` objects)."""
+    return footprint_samples(scene, data, resolution, band_low_m, band_high_m,
+                             lambda o: not o.startswith(("agent", "obj:")))

@@ -38,7 +38,8 @@ from fallgen.audio.mix import Binaural, BinauralClip, Listener
 from fallgen.audio.room import RirSettings, RoomAcoustics
 from fallgen.nav.agent import HEADINGS, VISIBLE_PIXELS, AgentSpec, Pose, run
 from fallgen.nav.expert import Expert, NoPath, expert, max_view_distance
-from fallgen.nav.occupancy import BOX_SIGNS, OccupancyGrid, geom_box_corners, occupancy
+from fallgen.nav.occupancy import (BOX_SIGNS, OccupancyGrid, geom_box_corners, occupancy,
+                                   room_samples)
 from fallgen.physics.drop import _instance, replay
 from fallgen.physics.events import FallEvent
 from fallgen.vision.camera import EgoCamera, View, world_category_labels
@@ -94,6 +95,7 @@ class EpisodeMaker:
         self.world, self.binaural, self.spec, self.rir = world, binaural, spec, rir
         self.sounds = FallRenderer(world)
         self.labels = world_category_labels(world)  # one segmentation table for a dataset
+        self._room_samples: dict[str, np.ndarray] = {}  # variant -> the room's occupancy layer
 
     def make(self, episode_id: int, event: FallEvent, root_seed: int,
              frames: str = "first", spawn: Pose | None = None) -> Episode:
@@ -125,7 +127,11 @@ class EpisodeMaker:
         cats = {o.name: o.instance.category for o in settled}
         camera = EgoCamera(scene, cats, spec, labels=self.labels)
         try:
-            grid = occupancy(scene, data, band_high_m=spec.height_m)
+            if variant.id not in self._room_samples:
+                self._room_samples[variant.id] = room_samples(scene, data,
+                                                              band_high_m=spec.height_m)
+            grid = occupancy(scene, data, band_high_m=spec.height_m,
+                             static=self._room_samples[variant.id])
             lo, hi = _target_box(scene, data)
             centre = (lo + hi) / 2
             # where a line of sight may reach: the centre and the corners pulled 25 % inward
@@ -153,13 +159,24 @@ class EpisodeMaker:
             view = camera.render(data, spawn)
             lap("render")
 
+            # both searches of the expert and the simulator's check ask about the same poses:
+            # each render and each set of ray casts is made once (the scene is static)
+            seen: dict[Pose, bool] = {}
+            clear: dict[tuple[float, float], bool] = {}
+
             def visible(p: Pose) -> bool:
-                return camera.pixels_of(data, p) >= VISIBLE_PIXELS
+                if p not in seen:
+                    seen[p] = camera.pixels_of(data, p) >= VISIBLE_PIXELS
+                return seen[p]
+
+            def line_of_sight(p: Pose) -> bool:
+                if (p.x, p.y) not in clear:
+                    clear[p.x, p.y] = _line_of_sight(scene, data, p, points, spec)
+                return clear[p.x, p.y]
 
             try:
-                ex = expert(spawn, grid, centre,
-                            lambda p: _line_of_sight(scene, data, p, points, spec), visible,
-                            spec, max_view_distance(hi - lo, VISIBLE_PIXELS))
+                ex = expert(spawn, grid, centre, line_of_sight, visible, spec,
+                            max_view_distance(hi - lo, VISIBLE_PIXELS))
             except NoPath as e:
                 raise Skip("no_path", str(e)) from None
             lap("planning")

@@ -22,6 +22,9 @@ with its mass and inertia computed from the watertight visual mesh.
 
 from __future__ import annotations
 
+import functools
+import hashlib
+import json
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -78,9 +81,11 @@ class ObjectGeometry:
     inertia_per_density: np.ndarray  # (3, 3) about com, for density 1 kg/m^3
     shell: ThinShell | None = None  # thin sheet walls (their modes come from shell theory)
 
-    @property
+    @functools.cached_property
     def extents(self) -> np.ndarray:
-        return self.vertices.max(axis=0) - self.vertices.min(axis=0)
+        e = self.vertices.max(axis=0) - self.vertices.min(axis=0)
+        e.flags.writeable = False
+        return e
 
 
 @dataclass(frozen=True)
@@ -118,6 +123,7 @@ class CategoryLibrary:
         self.categories = dict(categories)
         self.materials = materials
         self._geometry: dict[tuple[str, str], ObjectGeometry] = {}
+        self._nominal: dict[str, float] = {}
 
     def __getitem__(self, cid: str) -> Category:
         return self.categories[cid]
@@ -138,7 +144,7 @@ class CategoryLibrary:
         key = (cid, variant)
         if key not in self._geometry:
             cat = self.categories[cid]
-            self._geometry[key] = build_geometry(cat, cat.variant(variant))
+            self._geometry[key] = cached_geometry(cat, cat.variant(variant))
         return self._geometry[key]
 
     def instance(self, cid: str, variant: str, material: str, scale: float = 1.0) -> ObjectInstance:
@@ -151,8 +157,11 @@ class CategoryLibrary:
 
     def nominal_size_m(self, cid: str) -> float:
         """Longest bounding-box edge of a category, averaged over its variants, at scale 1."""
-        cat = self.categories[cid]
-        return float(np.mean([self.geometry(cid, v.name).extents.max() for v in cat.variants]))
+        if cid not in self._nominal:
+            cat = self.categories[cid]
+            self._nominal[cid] = float(np.mean([self.geometry(cid, v.name).extents.max()
+                                                for v in cat.variants]))
+        return self._nominal[cid]
 
     def distractors_for(self, cid: str, ratio: float = 2.0) -> list[str]:
         """Target categories of similar size to ``cid`` (longest edges within ``ratio``), which
@@ -308,9 +317,85 @@ def build_geometry(cat: Category, v: Variant) -> ObjectGeometry:
                                  "or use collision = \"hull\"") from None
             parts = parts if isinstance(parts, list) else [parts]
             collision = tuple(np.asarray(p.vertices, float) for p in parts)
-    vertices = np.asarray(mesh.vertices, float)
-    faces = np.asarray(mesh.faces, np.int64)
+    # C order throughout, as arrays loaded from the geometry cache are
+    vertices = np.ascontiguousarray(mesh.vertices, float)
+    faces = np.ascontiguousarray(mesh.faces, np.int64)
+    collision = tuple(np.ascontiguousarray(c, float) for c in collision)
     volume, com, inertia = _mass_properties(vertices, faces)
     if not volume > 0:
         raise InputError(v.mesh or cat.file, where, f"mesh volume is {volume:g} m^3 (inside out?)")
-    return ObjectGeometry(vertices, faces, collision, volume, com, inertia, shell)
+    return ObjectGeometry(vertices, faces, collision, volume, np.ascontiguousarray(com, float),
+                          np.ascontiguousarray(inertia, float), shell)
+
+
+# --- the geometry cache -------------------------------------------------------------------------
+
+#: Bump when the stored layout changes.
+GEOMETRY_CACHE_VERSION = 1
+
+
+@functools.cache
+def _generator_source_digest() -> str:
+    """A hash of the code that builds procedural geometry (the shape generators, the mesh kit,
+    this module and the shell description)."""
+    here = Path(__file__).parent
+    files = sorted([*here.glob("shapes/*.py"), *here.glob("meshkit/*.py"), here / "objects.py",
+                    here / "shell.py"])
+    h = hashlib.sha256()
+    for f in files:
+        h.update(f.name.encode() + f.read_bytes())
+    return h.hexdigest()
+
+
+def _geometry_cache_file(v: Variant) -> Path:
+    from fallgen.cache import cache_root
+
+    spec = json.dumps([GEOMETRY_CACHE_VERSION, v.shape, sorted(v.params.items())])
+    key = hashlib.sha256((_generator_source_digest() + spec).encode()).hexdigest()[:24]
+    return cache_root() / "geometry" / f"{v.shape}-{key}.npz"
+
+
+def _save_geometry(path: Path, g: ObjectGeometry) -> None:
+    import io
+
+    from fallgen.atomic import write_bytes
+
+    shell = None if g.shell is None else [g.shell.kind, list(g.shell.size), g.shell.thickness,
+                                          list(g.shell.center)]
+    arrays = {"vertices": g.vertices, "faces": g.faces, "com": g.com,
+              "inertia": g.inertia_per_density, "volume": np.array([g.volume_m3]),
+              "shell": np.array(json.dumps(shell))}
+    arrays.update({f"collision{i}": c for i, c in enumerate(g.collision)})
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    write_bytes(path, buf.getvalue())
+
+
+def _load_geometry(path: Path) -> ObjectGeometry:
+    with np.load(path) as z:
+        n = sum(1 for k in z.files if k.startswith("collision"))
+        shell = json.loads(str(z["shell"]))
+        return ObjectGeometry(
+            z["vertices"], z["faces"], tuple(z[f"collision{i}"] for i in range(n)),
+            float(z["volume"][0]), z["com"], z["inertia"],
+            None if shell is None else ThinShell(shell[0], tuple(shell[1]), shell[2],
+                                                 tuple(shell[3])))
+
+
+def cached_geometry(cat: Category, v: Variant) -> ObjectGeometry:
+    """:func:`build_geometry`, through the geometry cache for procedural shapes (user meshes
+    are loaded from their files). Loaded arrays are identical to freshly built ones."""
+    if v.shape is None:
+        return build_geometry(cat, v)
+    path = _geometry_cache_file(v)
+    if path.exists():
+        try:
+            return _load_geometry(path)
+        except (OSError, ValueError, KeyError):
+            path.unlink(missing_ok=True)  # a corrupt entry is rebuilt
+    g = build_geometry(cat, v)
+    try:
+        _save_geometry(path, g)
+    except OSError:
+        pass  # a read-only cache: just build every time
+    return g
