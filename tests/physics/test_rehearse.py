@@ -59,6 +59,40 @@ def test_replay_is_bit_identical(world, events_and_stats):
     assert r.contacts == e.contacts
 
 
+def test_sweep_bounds_the_fall_and_a_clear_agent_changes_nothing(world, events_and_stats):
+    """The recorded sweep holds the start and resting positions; an agent standing clear of it
+    (pipeline.episode.clear_of_fall) leaves the replay bit-identical to the rehearsal, which is
+    why generate reuses the rehearsal's contacts then; an agent on the fall's path is not
+    clear."""
+    from fallgen.nav.agent import AgentSpec, Pose
+    from fallgen.physics.drop import _instance
+    from fallgen.pipeline.episode import clear_of_fall
+    from fallgen.world.scene import AgentBody
+
+    events, _ = events_and_stats
+    spec = AgentSpec()
+    tried = 0
+    for e in events:
+        x0, y0, x1, y1 = e.sweep_xy
+        for p in (e.start_pos, e.settle_pos):
+            assert x0 <= p[0] <= x1 and y0 <= p[1] <= y1
+        target = _instance(world, e.target)
+        lx, ly, _ = world.variant(e.room_variant).size_m
+        on_path = Pose(e.settle_pos[0], e.settle_pos[1], 0)
+        assert not clear_of_fall(e, target, on_path, spec)
+        assert not clear_of_fall(dataclasses.replace(e, sweep_xy=None), target,
+                                 Pose(0.3, 0.3, 0), spec)  # unknown sweep: replay
+        for x, y in ((0.35, 0.35), (lx - 0.35, ly - 0.35), (0.35, ly - 0.35)):
+            pose = Pose(x, y, 3)
+            if not clear_of_fall(e, target, pose, spec):
+                continue
+            tried += 1
+            r = replay(world, e, agent=AgentBody(x, y, pose.yaw_rad, spec.radius_m,
+                                                 spec.height_m))
+            assert tuple(r.settle_pos) == e.settle_pos and r.contacts == e.contacts
+    assert tried >= 2
+
+
 def test_replay_in_a_fresh_process(world, events_and_stats, tmp_path):
     from fallgen.physics.rehearse import write_variant
 

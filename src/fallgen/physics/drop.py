@@ -10,6 +10,7 @@ perturb the target's trajectory at the 1e-9 level).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import zlib
 from dataclasses import dataclass
@@ -210,7 +211,8 @@ def _simulate(world: World, variant: RoomVariant, objs: list[PlacedObject], linv
         if not (np.array_equal(first.pos, res.pos) and np.array_equal(first.quat, res.quat)):
             raise RuntimeError("the recording pass diverged from the first pass: MuJoCo is not "
                                "deterministic here")
-        res = first
+        # the first pass's verdict, with the swept area seen at every step of the second
+        res = dataclasses.replace(first, xy_min=res.xy_min, xy_max=res.xy_max)
     return res, rec.finish(), d.xipos[b].copy(), float(m.body_mass[b]), overlap
 
 
@@ -270,7 +272,8 @@ def run_trial(world: World, variant: RoomVariant, zone: Zone, trial: int,
         start_angvel=angvel, settle_pos=tuple(map(float, res.pos)),
         settle_quat=tuple(map(float, res.quat)), settle_com=tuple(map(float, com)),
         settle_time_s=float(res.time_s), steps=res.steps, distractors=tuple(distractors),
-        occluders=tuple(occluders), contacts=tuple(contacts))
+        occluders=tuple(occluders), contacts=tuple(contacts),
+        sweep_xy=(*map(float, res.xy_min), *map(float, res.xy_max)))
     return TrialOutcome("kept", event, cid)
 
 

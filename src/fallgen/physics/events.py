@@ -55,6 +55,9 @@ class FallEvent:
     distractors: tuple[Placement, ...]
     occluders: tuple[Placement, ...]
     contacts: tuple[ContactEvent, ...]
+    # the target's body origin's (min x, min y, max x, max y) over every step of the fall
+    # (None in rehearsals made before it was recorded): where an agent cannot touch the fall
+    sweep_xy: tuple[float, float, float, float] | None = None
 
 
 _V3 = pa.list_(pa.float64(), 3)
@@ -82,6 +85,7 @@ SCHEMA = pa.schema([
     ("settle_time_s", pa.float64()), ("steps", pa.int32()),
     ("distractors", pa.list_(_PLACEMENT)), ("occluders", pa.list_(_PLACEMENT)),
     ("contacts", pa.list_(_CONTACT)),
+    ("sweep_xy", pa.list_(pa.float64(), 4)),
 ])
 
 
@@ -108,6 +112,8 @@ def from_table(table: pa.Table) -> list[FallEvent]:
         vec = {k: tuple(r[k]) for k in ("start_pos", "start_quat", "start_linvel",
                                         "start_angvel", "settle_pos", "settle_quat",
                                         "settle_com")}
+        if r.get("sweep_xy") is not None:
+            vec["sweep_xy"] = tuple(r["sweep_xy"])
         out.append(FallEvent(**{**r, **vec, "target": _obj(r["target"]),
                                 "distractors": _placements(r["distractors"]),
                                 "occluders": _placements(r["occluders"]),

@@ -39,6 +39,10 @@ class SettleResult:
     unstable: bool  # NaN/inf state or a MuJoCo warning
     warnings: dict[str, int]
     steps: int = 0  # steps simulated
+    # the body origin's lowest and highest x, y over the start and the states checked (every
+    # step when stepping one by one): with the body's bounding radius, the area the fall swept
+    xy_min: tuple[float, float] = (math.inf, math.inf)
+    xy_max: tuple[float, float] = (-math.inf, -math.inf)
 
 
 _WATCHED = ("mjWARN_BADQACC", "mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_CONTACTFULL",
@@ -94,6 +98,8 @@ def simulate_until_settled(model: mujoco.MjModel, data: mujoco.MjData, body_id: 
         max_steps = int(round(criteria.timeout_s / dt))
     calm, settled_at = 0, None
     max_speed, min_z, unstable = 0.0, np.inf, False
+    x_lo = x_hi = float(data.qpos[qadr])
+    y_lo = y_hi = float(data.qpos[qadr + 1])
     steps = 0
     # Poses are sampled every POSE_EVERY_STEPS steps whatever the chunk, so that a chunked
     # first pass and a step-by-step replay reach the same verdict at the same step.
@@ -117,6 +123,8 @@ def simulate_until_settled(model: mujoco.MjModel, data: mujoco.MjData, body_id: 
         lin, ang = math.sqrt(v[0] ** 2 + v[1] ** 2 + v[2] ** 2), \
             math.sqrt(v[3] ** 2 + v[4] ** 2 + v[5] ** 2)
         max_speed, min_z = max(max_speed, lin), min(min_z, float(z))
+        x, y = float(data.qpos[qadr]), float(data.qpos[qadr + 1])
+        x_lo, x_hi, y_lo, y_hi = min(x_lo, x), max(x_hi, x), min(y_lo, y), max(y_hi, y)
         calm = calm + 1 if (lin < criteria.lin_tol_mps and ang < criteria.ang_tol_radps) else 0
         sampled = steps % POSE_EVERY_STEPS == 0
         if sampled:
@@ -138,4 +146,6 @@ def simulate_until_settled(model: mujoco.MjModel, data: mujoco.MjData, body_id: 
         unstable=unstable,
         warnings=mujoco_warnings(data),
         steps=steps,
+        xy_min=(x_lo, y_lo),
+        xy_max=(x_hi, y_hi),
     )

@@ -143,14 +143,17 @@ class EpisodeMaker:
             else:
                 sees = camera.pixels_of(data, spawn) >= VISIBLE_PIXELS
             lap("spawn")
-            rep = replay(world, event, agent=AgentBody(spawn.x, spawn.y, spawn.yaw_rad,
-                                                       spec.radius_m, spec.height_m))
-            moved = float(np.linalg.norm(np.subtract(rep.settle_pos, event.settle_pos)))
-            turned = quat_angle_deg(rep.settle_quat, event.settle_quat)
-            if moved > SETTLE_TOLERANCE_M or turned > SETTLE_TOLERANCE_DEG:
-                raise Skip("replay_diverged", f"{moved * 1e3:.1f} mm, {turned:.1f} deg")
+            if clear_of_fall(event, target, spawn, spec):
+                replayed = event  # the agent cannot touch the fall: the rehearsal's contacts
+            else:
+                rep = replay(world, event, agent=AgentBody(spawn.x, spawn.y, spawn.yaw_rad,
+                                                           spec.radius_m, spec.height_m))
+                moved = float(np.linalg.norm(np.subtract(rep.settle_pos, event.settle_pos)))
+                turned = quat_angle_deg(rep.settle_quat, event.settle_quat)
+                if moved > SETTLE_TOLERANCE_M or turned > SETTLE_TOLERANCE_DEG:
+                    raise Skip("replay_diverged", f"{moved * 1e3:.1f} mm, {turned:.1f} deg")
+                replayed = _with_contacts(event, rep.contacts)
             lap("replay")
-            replayed = _with_contacts(event, rep.contacts)
             sources = self.sounds.render_sources(replayed, rng)
             room = RoomAcoustics.from_shoebox(variant.shoebox())
             head = Listener(np.array([spawn.x, spawn.y, spec.camera_height_m]), spawn.yaw_rad)
@@ -213,6 +216,28 @@ class EpisodeMaker:
                 return pose, False
         assert pose is not None
         return pose, True
+
+
+#: Gap (m) between the agent's body and the area a fall swept below which the fall is replayed
+#: with the agent standing there (beyond it, the agent's static geom can make no contact, and
+#: the simulation is the rehearsal's own, step for step).
+REPLAY_MARGIN_M = 0.1
+
+
+def clear_of_fall(event: FallEvent, target, spawn: Pose, spec: AgentSpec) -> bool:
+    """Whether the agent at ``spawn`` stands clear of everything the fall swept: the target's
+    body origin's floor-plan box over every step (``event.sweep_xy``), grown by the target's
+    bounding radius about its origin, at least ``REPLAY_MARGIN_M`` from the agent's disk.
+    False when the event does not record its sweep (an older rehearsal): replay then."""
+    if event.sweep_xy is None:
+        return False
+    g = target.geometry
+    radius = target.scale * max(float(np.linalg.norm(v, axis=1).max())
+                                for v in (g.vertices, *g.collision))
+    x0, y0, x1, y1 = event.sweep_xy
+    dx = max(x0 - radius - spawn.x, 0.0, spawn.x - x1 - radius)
+    dy = max(y0 - radius - spawn.y, 0.0, spawn.y - y1 - radius)
+    return math.hypot(dx, dy) >= spec.radius_m + REPLAY_MARGIN_M
 
 
 def quat_angle_deg(a, b) -> float:
