@@ -82,25 +82,45 @@ def test_frustum_cull_never_hides_a_visible_object(cam_scene):
     assert cam.outside_view(d, Pose(2.5, 1.8, 0, 0), "obj:nothing")
 
 
-def test_small_offscreen_buffer_gives_the_same_pixels(world):
-    """The camera shrinks the offscreen buffer to the image and drops the unused shadow map:
-    the views are those of MuJoCo's default renderer set-up."""
+def test_shared_context_gives_mujoco_renderers_pixels(world):
+    """Scenes drawn one after another in one shared GL context, with the camera's small
+    offscreen buffer and no shadow map, give exactly the RGB, depth and segmentation of
+    ``mujoco.Renderer`` on the model's default buffer (its own context per scene)."""
+    from fallgen.vision.gl import GLContext
+
     v = world.variant(VARIANT)
     inst = world.categories.instance("cup", "mug", "ceramic")
-    views = []
-    for shrink in (False, True):
-        scene = build_scene(v, world.materials, [PlacedObject("target", inst, (4.0, 1.8, 0.05))])
-        d = scene.data()
-        mujoco.mj_forward(scene.model, d)
-        cam = EgoCamera(scene, {"target": "cup"})
-        if not shrink:  # a renderer on the model's default buffer, for reference
+    shared = GLContext(300)
+    try:
+        for x in (4.0, 3.0):
+            scene = build_scene(v, world.materials, [PlacedObject("target", inst, (x, 1.8, 0.05))])
+            d = scene.data()
+            mujoco.mj_forward(scene.model, d)
+            cam = EgoCamera(scene, {"target": "cup"}, context=shared)
+            ours = [cam.render(d, Pose(2.5, 1.8, k, t)) for k in (0, 1, 11) for t in (-30, 0)]
+            cam.close()
             m = scene.model
             m.vis.global_.offwidth, m.vis.global_.offheight = 640, 480
             m.vis.quality.shadowsize = 4096
-            cam.renderer.close()
-            cam.renderer = mujoco.Renderer(m, 300, 300)
-        views.append([cam.render(d, Pose(2.5, 1.8, k, t)) for k in (0, 1, 11) for t in (-30, 0)])
-        cam.close()
-    for a, b in zip(*views):
-        assert np.array_equal(a.rgb, b.rgb) and np.array_equal(a.depth, b.depth)
-        assert np.array_equal(a.instance, b.instance)
+            ref = mujoco.Renderer(m, 300, 300)
+            for k, (heading, tilt) in enumerate((k, t) for k in (0, 1, 11) for t in (-30, 0)):
+                c = cam.camera(Pose(2.5, 1.8, heading, tilt))
+                ref.update_scene(d, c)
+                rgb = ref.render().copy()
+                ref.enable_depth_rendering()
+                ref.update_scene(d, c)
+                depth = ref.render().copy()
+                ref.disable_depth_rendering()
+                ref.enable_segmentation_rendering()
+                ref.update_scene(d, c)
+                seg = ref.render()
+                ref.disable_segmentation_rendering()
+                ids = np.where((seg[..., 1] == int(mujoco.mjtObj.mjOBJ_GEOM)) & (seg[..., 0] >= 0),
+                               seg[..., 0], -1)
+                assert np.array_equal(ours[k].rgb, rgb)
+                assert np.array_equal(ours[k].depth, depth)
+                assert np.array_equal(ours[k].instance, cam._inst[ids])
+            ref.close()
+            assert ours[0].pixels_of("obj:target") > 0 or ours[1].pixels_of("obj:target") > 0
+    finally:
+        shared.close()

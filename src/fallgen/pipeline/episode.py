@@ -42,7 +42,8 @@ from fallgen.nav.occupancy import (BOX_SIGNS, OccupancyGrid, geom_box_corners, o
                                    room_samples)
 from fallgen.physics.drop import _instance, replay
 from fallgen.physics.events import FallEvent
-from fallgen.vision.camera import EgoCamera, View, world_category_labels
+from fallgen.vision.camera import WIDTH, EgoCamera, View, world_category_labels
+from fallgen.vision.gl import GLContext
 from fallgen.world.library import World
 from fallgen.world.scene import AgentBody, PlacedObject, build_scene
 
@@ -96,6 +97,12 @@ class EpisodeMaker:
         self.sounds = FallRenderer(world)
         self.labels = world_category_labels(world)  # one segmentation table for a dataset
         self._room_samples: dict[str, np.ndarray] = {}  # variant -> the room's occupancy layer
+        self._gl: GLContext | None = None  # one GL context for every episode's camera
+
+    def close(self) -> None:
+        if self._gl is not None:
+            self._gl.close()
+            self._gl = None
 
     def make(self, episode_id: int, event: FallEvent, root_seed: int,
              frames: str = "first", spawn: Pose | None = None) -> Episode:
@@ -125,7 +132,9 @@ class EpisodeMaker:
         data = scene.data()
         mujoco.mj_forward(scene.model, data)
         cats = {o.name: o.instance.category for o in settled}
-        camera = EgoCamera(scene, cats, spec, labels=self.labels)
+        if self._gl is None:
+            self._gl = GLContext(WIDTH)
+        camera = EgoCamera(scene, cats, spec, labels=self.labels, context=self._gl)
         try:
             if variant.id not in self._room_samples:
                 self._room_samples[variant.id] = room_samples(scene, data,

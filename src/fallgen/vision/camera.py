@@ -22,6 +22,7 @@ import numpy as np
 
 from fallgen.nav.agent import AgentSpec, Pose
 from fallgen.nav.occupancy import geom_box_corners
+from fallgen.vision.gl import GLContext, SceneFrames
 from fallgen.world.scene import Scene
 
 WIDTH = HEIGHT = 300
@@ -70,13 +71,21 @@ def _category(owner: str, scene: Scene, object_categories: dict[str, str]) -> st
 
 
 class EgoCamera:
-    """Renders views of one compiled scene (keep one per scene: the GL context is reused)."""
+    """Renders views of one compiled scene (keep one per scene; pass a long-lived ``context``
+    to draw many scenes in one GL context, see :mod:`fallgen.vision.gl`)."""
 
     def __init__(self, scene: Scene, object_categories: dict[str, str] | None = None,
                  spec: AgentSpec = AgentSpec(), size: int = WIDTH,
-                 labels: tuple[str, ...] | None = None) -> None:
-        """``labels``: the category table to index (default: this scene's own categories)."""
+                 labels: tuple[str, ...] | None = None,
+                 context: GLContext | None = None) -> None:
+        """``labels``: the category table to index (default: this scene's own categories);
+        ``context``: a GL context of ``size`` to draw in (default: one of its own, closed with
+        the camera)."""
         self.scene, self.spec = scene, spec
+        if context is not None and context.size != size:
+            raise ValueError(f"GL context is {context.size} px, the camera {size} px")
+        self._own_context = context is None
+        context = context or GLContext(size)
         m = scene.model
         m.vis.global_.fovy = FOV_DEG
         m.vis.map.znear = 0.01  # of the model's extent: ~5 cm in a room
@@ -86,7 +95,7 @@ class EgoCamera:
         m.vis.global_.offwidth = m.vis.global_.offheight = size
         if not m.light_castshadow.any():
             m.vis.quality.shadowsize = 0
-        self.renderer = mujoco.Renderer(m, size, size, max_geom=max(1000, 4 * m.ngeom))
+        self.frames = SceneFrames(m, context, max_geom=max(1000, 4 * m.ngeom))
         self.instances = tuple(sorted(set(scene.geom_owner)))
         inst_of_geom = np.array([self.instances.index(o) for o in scene.geom_owner], np.int16)
         cats = object_categories or {}
@@ -101,7 +110,9 @@ class EgoCamera:
         self._cat = np.append(cat_of_geom, np.int16(-1))
 
     def close(self) -> None:
-        self.renderer.close()
+        self.frames.close()
+        if self._own_context:
+            self.frames.context.close()
 
     def camera(self, pose: Pose) -> mujoco.MjvCamera:
         cam = mujoco.MjvCamera()
@@ -119,21 +130,12 @@ class EgoCamera:
 
     def render(self, data: mujoco.MjData, pose: Pose, what: str = "all") -> View:
         """The view from ``pose``; ``what="segmentation"`` renders only the segmentation."""
-        r, cam = self.renderer, self.camera(pose)
+        f, cam = self.frames, self.camera(pose)
         rgb = depth = None
         if what == "all":
-            r.update_scene(data, cam)
-            rgb = r.render().copy()
-            r.enable_depth_rendering()
-            r.update_scene(data, cam)
-            depth = r.render().astype(np.float32)
-            r.disable_depth_rendering()
-        r.enable_segmentation_rendering()
-        r.update_scene(data, cam)
-        seg = r.render()
-        r.disable_segmentation_rendering()
-        ids = seg[..., 0].astype(np.int64)
-        geom = np.where((seg[..., 1] == int(mujoco.mjtObj.mjOBJ_GEOM)) & (ids >= 0), ids, -1)
+            rgb = f.rgb(data, cam)
+            depth = f.depth(data, cam)
+        geom = f.geoms(data, cam)
         inst, cat = self._inst[geom], self._cat[geom]
         empty = np.zeros((0, 0), np.float32)
         return View(rgb if rgb is not None else np.zeros((0, 0, 3), np.uint8),

@@ -1,0 +1,104 @@
+"""Offscreen MuJoCo rendering with one GL context for many scenes.
+
+``mujoco.Renderer`` makes a new OpenGL context for every model. On a CPU renderer (Mesa
+llvmpipe, what a machine without a GPU has) that costs ~10 ms, and the first frame drawn in a
+fresh context another ~70 ms (its shaders are compiled on first use), so a context per episode
+cost more than the rest of the episode's renders. A :class:`GLContext` here lives as long as its
+owner (a worker's episode maker); each scene gets a :class:`SceneFrames` on it, which holds only
+the model's own MuJoCo render context (meshes, textures) and scene.
+
+The pixels are those of ``mujoco.Renderer`` (same flags, same read-out, same depth
+linearisation: tests/vision compares them).
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+
+class GLContext:
+    """An offscreen OpenGL context (``MUJOCO_GL``: egl or osmesa) of ``size`` x ``size``."""
+
+    def __init__(self, size: int) -> None:
+        from mujoco.rendering.classic.gl_context import GLContext as _Context
+
+        self.size = size
+        self._ctx = _Context(size, size)
+        self._ctx.make_current()
+
+    def make_current(self) -> None:
+        self._ctx.make_current()
+
+    def close(self) -> None:
+        if self._ctx is not None:
+            self._ctx.free()
+            self._ctx = None
+
+
+class SceneFrames:
+    """RGB, depth (metres) and geom segmentation of one model, drawn in a shared context."""
+
+    def __init__(self, model: mujoco.MjModel, context: GLContext, max_geom: int) -> None:
+        self.model, self.context, self.size = model, context, context.size
+        context.make_current()
+        self._con = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_150.value)
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._con)
+        self._con.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
+        self._scene = mujoco.MjvScene(model=model, maxgeom=max_geom)
+        self._option = mujoco.MjvOption()
+        self._rect = mujoco.MjrRect(0, 0, self.size, self.size)
+
+    def close(self) -> None:
+        if self._con is not None:
+            self.context.make_current()
+            self._con.free()
+            self._con = None
+
+    def _draw(self, data: mujoco.MjData, camera: mujoco.MjvCamera, ids: bool) -> None:
+        mujoco.mjv_updateScene(self.model, data, self._option, None, camera,
+                               mujoco.mjtCatBit.mjCAT_ALL.value, self._scene)
+        flags = self._scene.flags
+        # depth and segmentation are drawn with segment colours (as mujoco.Renderer does: the
+        # depth is more accurate far away)
+        flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = ids
+        flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = ids
+        self.context.make_current()
+        mujoco.mjr_render(self._rect, self._scene, self._con)
+
+    def rgb(self, data: mujoco.MjData, camera: mujoco.MjvCamera) -> np.ndarray:
+        self._draw(data, camera, False)
+        out = np.empty((self.size, self.size, 3), np.uint8)
+        mujoco.mjr_readPixels(out, None, self._rect, self._con)
+        return np.ascontiguousarray(np.flipud(out))
+
+    def depth(self, data: mujoco.MjData, camera: mujoco.MjvCamera) -> np.ndarray:
+        self._draw(data, camera, True)
+        raw = np.empty((self.size, self.size), np.float32)
+        mujoco.mjr_readPixels(None, raw, self._rect, self._con)
+        extent = self.model.stat.extent
+        znear = np.float32(self.model.vis.map.znear * extent)
+        zfar = np.float32(self.model.vis.map.zfar * extent)
+        # the perspective matrix's coefficients in float32 (as glFrustum has them), in
+        # MuJoCo's reversed-Z mapping, then undone in float64
+        c = -(zfar + znear) / (zfar - znear)
+        d = -(np.float32(2) * zfar * znear) / (zfar - znear)
+        c = np.float32(-0.5) * c - np.float32(0.5)
+        d = np.float32(-0.5) * d
+        metres = (d / (raw.astype(np.float64) + c)).astype(np.float32)
+        return np.ascontiguousarray(np.flipud(metres))
+
+    def geoms(self, data: mujoco.MjData, camera: mujoco.MjvCamera) -> np.ndarray:
+        """(H, W) int64: the geom id seen at each pixel, -1 for none (or a non-geom)."""
+        self._draw(data, camera, True)
+        rgb = np.empty((self.size, self.size, 3), np.uint8)
+        mujoco.mjr_readPixels(rgb, None, self._rect, self._con)
+        c = rgb.astype(np.uint32)
+        segid = c[..., 0] + c[..., 1] * (2 ** 8) + c[..., 2] * (2 ** 16)
+        n = self._scene.ngeom
+        table = np.full(n + 1, -1, np.int64)  # segment id 0 is the background
+        geom = int(mujoco.mjtObj.mjOBJ_GEOM)
+        for g in self._scene.geoms[:n]:
+            if g.segid != -1 and g.objtype == geom and g.objid >= 0:
+                table[g.segid + 1] = g.objid
+        return np.ascontiguousarray(np.flipud(table[segid]))
