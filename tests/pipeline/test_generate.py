@@ -114,3 +114,29 @@ def test_kill_9_at_random_points_then_resume_gives_the_same_bytes(tiny_build, tm
     dirs = ("data", "media", ".")
     assert digest(root, dirs) == digest(base / "one", dirs), f"killed after {delays} s"
     assert cli("validate", str(root)) == 0
+
+
+def test_a_shard_loads_only_the_events_it_can_use(tiny_build):
+    """Planning reads only ids and kinds; a shard's events are its episodes' events and their
+    fallbacks, loaded from their own variants' files, and equal to the full load's."""
+    from fallgen.pipeline.generate import (MAX_EVENT_ATTEMPTS, build_plan, event_refs,
+                                           job_event_ids, load_events)
+
+    from fallgen.config import load_config
+
+    base, cfg_file = tiny_build
+    cfg, out = load_config(cfg_file), base / "one"
+    everything = {e.event_id: e for e in load_events(cfg, out)}
+    refs = event_refs(cfg, out)
+    assert [r.event_id for r in refs] == sorted(everything)
+    assert all(everything[r.event_id].room_kind == r.room_kind for r in refs)
+    b = build_plan(cfg, out)
+    for job in b.jobs:
+        ids = job_event_ids(job, b.pools)
+        assert {p.event_id for p in job.episodes} <= ids
+        assert len(ids) <= len(job.episodes) * MAX_EVENT_ATTEMPTS
+        assert all(i in b.pools[(job.split, job.room_kind)] for i in ids)
+        loaded = load_events(cfg, out, ids)
+        assert [e.event_id for e in loaded] == sorted(ids)
+        assert all(e == everything[e.event_id] for e in loaded)
+    assert load_events(cfg, out, set()) == []

@@ -16,9 +16,13 @@ import dataclasses
 import glob
 import itertools
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import dataclass, field
 from pathlib import Path
+
+import pyarrow as pa
+import pyarrow.compute as pc
+import pyarrow.parquet as pq
 
 from fallgen.audio.hrtf import load_sofa, spherical_head
 from fallgen.audio.mix import Binaural
@@ -26,8 +30,8 @@ from fallgen.audio.room import RirSettings
 from fallgen.config import SPLITS, BuildConfig
 from fallgen.dataset.manifest import finalize
 from fallgen.dataset.writer import row_of, shard_name, write_shard
-from fallgen.physics.events import FallEvent
-from fallgen.physics.rehearse import read_events, rehearsal_dir
+from fallgen.physics.events import FallEvent, from_table
+from fallgen.physics.rehearse import rehearsal_dir
 from fallgen.pipeline.episode import EpisodeMaker, Skip
 from fallgen.pipeline.executor import parallel_map, select_units
 from fallgen.pipeline.plan import PlannedEpisode, plan, pools_of
@@ -45,13 +49,60 @@ class ShardResult:
     skipped_shard: bool = False  # already done
 
 
-def load_events(cfg: BuildConfig, out: Path | None = None) -> list[FallEvent]:
-    files = sorted(glob.glob(str(rehearsal_dir(cfg, out) / "*.parquet")))
+def _rehearsal_files(cfg: BuildConfig, out: Path | None) -> list[Path]:
+    files = sorted(Path(f) for f in glob.glob(str(rehearsal_dir(cfg, out) / "*.parquet")))
     if not files:
         raise FileNotFoundError(f"no rehearsal files in {rehearsal_dir(cfg, out)}: run "
                                 "`fallgen rehearse` first")
-    events = [e for f in files for e in read_events(f)]
+    return files
+
+
+@dataclass(frozen=True)
+class EventRef:
+    """What planning needs of a fall event (its contacts stay on disk)."""
+
+    event_id: str
+    room_kind: str
+
+
+def event_refs(cfg: BuildConfig, out: Path | None = None) -> list[EventRef]:
+    """Every rehearsed event's id and room kind, sorted by id (two columns read)."""
+    refs = []
+    for f in _rehearsal_files(cfg, out):
+        t = pq.read_table(f, columns=["event_id", "room_kind"])
+        refs += [EventRef(i, k) for i, k in zip(t["event_id"].to_pylist(),
+                                                  t["room_kind"].to_pylist())]
+    return sorted(refs, key=lambda e: e.event_id)
+
+
+def load_events(cfg: BuildConfig, out: Path | None = None,
+                ids: Collection[str] | None = None) -> list[FallEvent]:
+    """The rehearsed events (only those in ``ids``, reading only their variants' files, when
+    given), sorted by id."""
+    files = _rehearsal_files(cfg, out)
+    if ids is not None:
+        variants = {i.split("/", 1)[0] for i in ids}
+        files = [f for f in files if f.stem in variants]
+        wanted = pa.array(sorted(ids), pa.string())
+    events = []
+    for f in files:
+        t = pq.read_table(f)
+        if ids is not None:
+            t = t.filter(pc.is_in(t["event_id"], value_set=wanted))
+        events += from_table(t)
     return sorted(events, key=lambda e: e.event_id)
+
+
+def job_event_ids(job: ShardJob, pools: dict[tuple[str, str], list[str]]) -> set[str]:
+    """Every event a shard can use: each planned episode's event and the fallbacks after it
+    in its pool."""
+    out: set[str] = set()
+    for p in job.episodes:
+        pool = pools[(p.split, p.room_kind)]
+        first = pool.index(p.event_id)
+        out.update(pool[(first + a) % len(pool)]
+                   for a in range(min(MAX_EVENT_ATTEMPTS, len(pool))))
+    return out
 
 
 @dataclass(frozen=True)
@@ -130,17 +181,23 @@ _STATE: dict = {}
 
 
 def _init(root: str, cfg: BuildConfig, out: str) -> None:
-    """A worker's state, made once: the world, the episode maker (modal models, HRTF), events."""
+    """A worker's state, made once: the world and the episode maker (modal models, HRTF)."""
     world = load_world(root)
-    events = load_events(cfg, Path(out))
-    _STATE.update(world=world, maker=_maker(world, cfg), cfg=cfg, out=Path(out),
-                  events={e.event_id: e for e in events})
+    _STATE.update(world=world, maker=_maker(world, cfg), cfg=cfg, out=Path(out))
+
+
+def _make_job(world: World, maker: EpisodeMaker, cfg: BuildConfig, job: ShardJob,
+              pools: dict[tuple[str, str], list[str]], out: Path) -> ShardResult:
+    """One shard, loading only the events it can use (all of a full build's events with
+    their contacts would take ~700 MB in every worker)."""
+    events = {e.event_id: e for e in load_events(cfg, out, job_event_ids(job, pools))}
+    return make_shard(world, maker, cfg, job, events, pools, out)
 
 
 def _work(args: tuple[ShardJob, dict[tuple[str, str], list[str]]]) -> ShardResult:
     job, pools = args
     s = _STATE
-    return make_shard(s["world"], s["maker"], s["cfg"], job, s["events"], pools, s["out"])
+    return _make_job(s["world"], s["maker"], s["cfg"], job, pools, s["out"])
 
 
 @dataclass(frozen=True)
@@ -149,13 +206,11 @@ class Build:
 
     jobs: list[ShardJob]
     pools: dict[tuple[str, str], list[str]]
-    events: list[FallEvent]
 
 
 def build_plan(cfg: BuildConfig, out: Path | None = None) -> Build:
-    events = load_events(cfg, out or cfg.out)
-    planned = plan(events, cfg.generate.episodes, cfg.root_seed)
-    return Build(shard_jobs(planned, cfg.generate.episodes_per_shard), pools_of(planned), events)
+    planned = plan(event_refs(cfg, out or cfg.out), cfg.generate.episodes, cfg.root_seed)
+    return Build(shard_jobs(planned, cfg.generate.episodes_per_shard), pools_of(planned))
 
 
 def missing_shards(cfg: BuildConfig, out: Path | None = None, b: Build | None = None
@@ -198,8 +253,7 @@ def generate(world: World, cfg: BuildConfig, out: Path | None = None, workers: i
         made = iter(done)
     elif executor == "local" and min(workers, len(todo)) <= 1:  # in this process
         maker = _maker(world, cfg)
-        by_id = {e.event_id: e for e in b.events}
-        made = itertools.chain(done, (make_shard(world, maker, cfg, job, by_id, b.pools, out)
+        made = itertools.chain(done, (_make_job(world, maker, cfg, job, b.pools, out)
                                       for job in todo))
     else:
         made = itertools.chain(done, parallel_map(_work, [(j, b.pools) for j in todo], _init,
@@ -215,5 +269,5 @@ def generate(world: World, cfg: BuildConfig, out: Path | None = None, workers: i
     return results
 
 
-__all__ = ["generate", "shard_jobs", "make_shard", "load_events", "finalize_build",
-           "missing_shards", "build_plan"]
+__all__ = ["generate", "shard_jobs", "make_shard", "load_events", "event_refs", "job_event_ids",
+           "finalize_build", "missing_shards", "build_plan"]

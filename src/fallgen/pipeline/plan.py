@@ -16,12 +16,19 @@ everything else from its own generator (``episode_rng``).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
 from fallgen.config import SPLITS
 from fallgen.physics.events import FallEvent
+
+
+class EventLike(Protocol):
+    event_id: str
+    room_kind: str
 
 #: spawn_key of the plan's own shuffle (episode generators use (episode_id,) keys).
 PLAN_KEY = 2 ** 32 - 1
@@ -61,8 +68,9 @@ def kind_counts(n: int, kinds: list[str]) -> dict[str, int]:
     return {k: n // len(kinds) + (1 if i < n % len(kinds) else 0) for i, k in enumerate(kinds)}
 
 
-def plan(events: list[FallEvent], episodes: tuple[int, ...], root_seed: int
+def plan(events: Sequence[FallEvent | EventLike], episodes: tuple[int, ...], root_seed: int
          ) -> list[PlannedEpisode]:
+    """The build's episodes from its events (anything with ``event_id`` and ``room_kind``)."""
     if not events:
         raise ValueError("no fall events to make episodes from")
     ids = sorted(e.event_id for e in events)
