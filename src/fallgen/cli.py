@@ -180,7 +180,9 @@ def _run_generation(cfg, config: Path, world, workers: int, out: Path | None,
             bar.update(task, advance=1, description=f"{r.name}: " + (
                 "done before" if r.skipped_shard else f"{r.episodes} episodes"))
 
-        run(world, cfg, out, workers=workers, progress=tick, b=b, **parallel)
+        run(world, cfg, out, workers=workers, progress=tick, b=b,
+            modes_progress=lambda label: bar.update(task, description=f"modal model {label}"),
+            **parallel)
     dest = out or cfg.out
     size = sum(p.stat().st_size for d in ("data", "media") for p in (dest / d).glob("*")
                if p.is_file())

@@ -198,3 +198,40 @@ def test_show_writes_a_picture_and_the_binaural_wav(tiny_build, tmp_path, cli):
     assert np.allclose(audio.T, ep["audio"], atol=1e-7)
     assert cli("show", str(base / "one"), "99", "-o", str(png)) == 2  # one-line error
     assert cli("show", str(tmp_path), "0", "-o", str(png)) == 2
+
+
+def test_shard_writer_streams_and_leaves_nothing_half_written(tmp_path):
+    """Episodes go to the temporary media file as they are added; close() needs one row per
+    episode and renames; abort() removes the temporary file; no final name exists before
+    close()."""
+    from types import SimpleNamespace
+
+    import h5py
+
+    from fallgen.dataset.writer import ShardWriter
+
+    def episode(k):
+        view = SimpleNamespace(rgb=np.full((4, 4, 3), k, np.uint8),
+                               depth=np.full((4, 4), k, np.float32),
+                               instance=np.full((4, 4), k, np.int16),
+                               category=np.full((4, 4), k, np.int16))
+        return SimpleNamespace(audio=SimpleNamespace(audio=np.full((2, 8), k, np.float32)),
+                               view=view, grid=SimpleNamespace(occupied=np.eye(3, dtype=bool)),
+                               frames=())
+
+    w = ShardWriter(tmp_path, "train", 0, 1, ("a", "b"))
+    assert [w.add(episode(k)) for k in range(3)] == [0, 1, 2]
+    assert not w.media.exists() and not w.data.exists()
+    with pytest.raises(ValueError):
+        w.close([{"episode_id": 0}])
+    w.abort()
+    assert list(tmp_path.rglob("*.h5*")) == []
+    w = ShardWriter(tmp_path, "train", 0, 1, ("a", "b"))
+    for k in range(3):
+        w.add(episode(k))
+    data, media = w.close([{"episode_id": k} for k in range(3)])
+    with h5py.File(media) as h5:
+        assert h5["rgb"].shape == (3, 4, 4, 3) and h5["rgb"].chunks == (1, 4, 4, 3)
+        assert [int(h5["audio"][k, 0, 0]) for k in range(3)] == [0, 1, 2]
+        assert h5["depth"].dtype == np.float16 and sorted(h5["occupancy"]) == ["0", "1", "2"]
+    assert pq.read_table(data).num_rows == 3

@@ -8,8 +8,7 @@ in its material's; the floor, wall and ceiling panel of every surface finish. :c
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Callable, Collection, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -17,6 +16,7 @@ import mujoco
 import numpy as np
 
 from fallgen.audio.modes import ModalSettings, cache_key, default_cache_dir, modal_model, round_nu
+from fallgen.pipeline.executor import parallel_map
 from fallgen.world.library import World
 
 
@@ -28,7 +28,12 @@ class ModalJob:
     nu: float
 
 
-def jobs(world: World) -> list[ModalJob]:
+def jobs(world: World, variants: Collection[str] | None = None,
+         objects: Collection[tuple[str, str, str]] | None = None,
+         parts: Collection[tuple[str, int]] | None = None) -> list[ModalJob]:
+    """Every modal model a build can need; or only those of the room ``variants`` (ids), of
+    the ``objects`` ((category, variant, material) triples) and of the furniture ``parts``
+    ((variant id, geom id) in the variant's scene without objects) when given."""
     from fallgen.audio.fall import is_panel, panel_mesh, part_mesh
     from fallgen.world.scene import build_scene
 
@@ -45,10 +50,14 @@ def jobs(world: World) -> list[ModalJob]:
             if g.shell is not None:  # closed-form shell modes: nothing to solve or cache
                 continue
             for mname in v.materials:
-                add(f"{cat.id}/{v.name}", g.vertices, g.faces, mats.object(mname).poisson_ratio)
+                if objects is None or (cat.id, v.name, mname) in objects:
+                    add(f"{cat.id}/{v.name}", g.vertices, g.faces,
+                        mats.object(mname).poisson_ratio)
     patch = panel_mesh()
     for room in world.rooms.values():
         for variant in room.variants:
+            if variants is not None and variant.id not in variants:
+                continue
             for face, s in variant.surfaces.items():
                 add(f"panel/{s.impact_material}", patch.vertices, patch.faces,
                     mats.object(s.impact_material).poisson_ratio)
@@ -56,7 +65,8 @@ def jobs(world: World) -> list[ModalJob]:
             m = scene.model
             for gid in range(m.ngeom):
                 owner = scene.geom_owner[gid]
-                if is_panel(owner) or owner == "agent":
+                if is_panel(owner) or owner == "agent" or \
+                        parts is not None and (variant.id, gid) not in parts:
                     continue
                 gtype = int(m.geom_type[gid])
                 mesh = part_mesh(gtype, m.geom_size[gid])
@@ -72,21 +82,30 @@ def _solve(args) -> str:
     return job.label
 
 
+def missing(todo: list[ModalJob], settings: ModalSettings = ModalSettings(),
+            cache_dir: Path | None = None) -> list[ModalJob]:
+    """The jobs whose models are not in the cache yet."""
+    cache_dir = cache_dir or default_cache_dir()
+    return [j for j in todo if not (cache_dir / f"{cache_key(j.vertices, j.faces, j.nu, settings)}"
+                                                f".npz").exists()]
+
+
 def precompute(world: World, settings: ModalSettings = ModalSettings(),
                cache_dir: Path | None = None, workers: int = 1,
-               on_done: Callable[[str], None] | None = None) -> int:
-    """Solve every job not yet cached; returns how many there were in all."""
-    todo = jobs(world)
+               on_done: Callable[[str], None] | None = None,
+               todo: list[ModalJob] | None = None) -> int:
+    """Solve every job (of ``todo``, default: :func:`jobs`) not yet cached; returns how
+    many there were in all."""
+    todo = jobs(world) if todo is None else todo
     cache_dir = cache_dir or default_cache_dir()
     args = [(j, settings, cache_dir) for j in todo]
-    if workers <= 1:
-        it: Iterator[str] = map(_solve, args)
-        for label in it:
-            if on_done:
-                on_done(label)
-    else:
-        with ProcessPoolExecutor(workers) as pool:
-            for label in pool.map(_solve, args):
-                if on_done:
-                    on_done(label)
+    it: Iterator[str] = map(_solve, args) if workers <= 1 or len(args) <= 1 else \
+        parallel_map(_solve, args, _no_init, (), min(workers, len(args)))
+    for label in it:
+        if on_done:
+            on_done(label)
     return len(todo)
+
+
+def _no_init() -> None:
+    pass

@@ -86,41 +86,86 @@ def row_of(ep, split: str, media: str, index: int, root_seed: int,
     return row
 
 
+class ShardWriter:
+    """Writes one shard as its episodes are made (only the rows stay in memory: a 250-episode
+    shard held whole took ~450 MB). The media go to a temporary file; :meth:`close` renames it
+    and then writes the rows, :meth:`abort` removes it: no partial file under a final name.
+
+    ``audio``, ``rgb``, ``depth``, ``instance`` and ``category`` grow by one chunk (one
+    episode) per :meth:`add`; ``occupancy/{row}`` and ``frames/{row}/...`` are added per row."""
+
+    def __init__(self, root: Path, split: str, i: int, n: int,
+                 category_labels: tuple[str, ...]) -> None:
+        self.split, self.i, self.n = split, i, n
+        name = shard_name(split, i, n)
+        self.media = root / "media" / f"{name}.h5"
+        self.data = root / "data" / f"{name}.parquet"
+        self.media.parent.mkdir(parents=True, exist_ok=True)
+        self.data.parent.mkdir(parents=True, exist_ok=True)
+        self._tmp = self.media.with_name(self.media.name + ".tmp")
+        self._h5 = h5py.File(self._tmp, "w", track_order=False)
+        self._h5.attrs["actions"] = json.dumps(ACTIONS)
+        self._h5.attrs["category_labels"] = json.dumps(list(category_labels))
+        self.rows = 0
+
+    def _append(self, name: str, a: np.ndarray) -> None:
+        if name not in self._h5:
+            self._h5.create_dataset(name, shape=(0, *a.shape), maxshape=(None, *a.shape),
+                                    chunks=(1, *a.shape), dtype=a.dtype, compression="gzip",
+                                    compression_opts=GZIP, shuffle=True, track_times=False)
+        d = self._h5[name]
+        d.resize(self.rows + 1, axis=0)
+        d[self.rows] = a
+
+    def add(self, ep) -> int:
+        """Write an episode's arrays; returns its row (media index)."""
+        k = self.rows
+        self._append("audio", ep.audio.audio)
+        self._append("rgb", ep.view.rgb)
+        self._append("depth", ep.view.depth.astype(np.float16))
+        self._append("instance", ep.view.instance)
+        self._append("category", ep.view.category)
+        occ = self._h5.require_group("occupancy")
+        _dataset(occ, str(k), ep.grid.occupied.astype(np.uint8)[None])
+        if ep.frames:
+            g = self._h5.require_group("frames").create_group(str(k), track_order=False)
+            _dataset(g, "rgb", np.stack([v.rgb for v in ep.frames]))
+            _dataset(g, "depth", np.stack([v.depth for v in ep.frames]).astype(np.float16))
+            _dataset(g, "instance", np.stack([v.instance for v in ep.frames]))
+        self.rows += 1
+        return k
+
+    def close(self, rows: list[dict], dropped: list = ()) -> tuple[Path, Path]:
+        """Finish the media file, then write the rows. ``dropped``: planned episodes no event
+        could make, as [episode_id, [[event_id, reason], ...]], kept in the Parquet schema's
+        metadata (key ``fallgen``) so that ``validate`` and ``stats`` can account for them."""
+        if len(rows) != self.rows:
+            raise ValueError(f"{len(rows)} rows for {self.rows} episodes")
+        self._h5.close()
+        os.replace(self._tmp, self.media)
+        table = pa.Table.from_pylist(rows) if rows else \
+            pa.table({"episode_id": pa.array([], pa.int64())})
+        meta = {"split": self.split, "shard": self.i, "num_shards": self.n,
+                "dropped": [list(d) for d in dropped]}
+        table = table.replace_schema_metadata({META_KEY: json.dumps(meta, sort_keys=True)})
+        tmp = self.data.with_name(self.data.name + ".tmp")
+        pq.write_table(table, tmp, compression="zstd")
+        os.replace(tmp, self.data)
+        return self.data, self.media
+
+    def abort(self) -> None:
+        self._h5.close()
+        self._tmp.unlink(missing_ok=True)
+
+
 def write_shard(root: Path, split: str, i: int, n: int, episodes: list, rows: list[dict],
                 category_labels: tuple[str, ...], dropped: list = ()) -> tuple[Path, Path]:
-    """Write one shard (media, then rows), atomically. ``dropped``: planned episodes no event
-    could make, as [episode_id, [[event_id, reason], ...]], kept in the Parquet schema's
-    metadata (key ``fallgen``) so that ``validate`` and ``stats`` can account for them."""
-    name = shard_name(split, i, n)
-    media = root / "media" / f"{name}.h5"
-    data = root / "data" / f"{name}.parquet"
-    media.parent.mkdir(parents=True, exist_ok=True)
-    data.parent.mkdir(parents=True, exist_ok=True)
-    tmp = media.with_name(media.name + ".tmp")
-    with h5py.File(tmp, "w", track_order=False) as h5:
-        h5.attrs["actions"] = json.dumps(ACTIONS)
-        h5.attrs["category_labels"] = json.dumps(list(category_labels))
-        if episodes:
-            _dataset(h5, "audio", np.stack([ep.audio.audio for ep in episodes]))
-            _dataset(h5, "rgb", np.stack([ep.view.rgb for ep in episodes]))
-            _dataset(h5, "depth", np.stack([ep.view.depth for ep in episodes]).astype(np.float16))
-            _dataset(h5, "instance", np.stack([ep.view.instance for ep in episodes]))
-            _dataset(h5, "category", np.stack([ep.view.category for ep in episodes]))
-            occ = h5.create_group("occupancy", track_order=False)
-            for k, ep in enumerate(episodes):
-                _dataset(occ, str(k), ep.grid.occupied.astype(np.uint8)[None])
-            if any(ep.frames for ep in episodes):
-                fr = h5.create_group("frames", track_order=False)
-                for k, ep in enumerate(episodes):
-                    g = fr.create_group(str(k), track_order=False)
-                    _dataset(g, "rgb", np.stack([v.rgb for v in ep.frames]))
-                    _dataset(g, "depth", np.stack([v.depth for v in ep.frames]).astype(np.float16))
-                    _dataset(g, "instance", np.stack([v.instance for v in ep.frames]))
-    os.replace(tmp, media)
-    table = pa.Table.from_pylist(rows) if rows else pa.table({"episode_id": pa.array([], pa.int64())})
-    meta = {"split": split, "shard": i, "num_shards": n, "dropped": [list(d) for d in dropped]}
-    table = table.replace_schema_metadata({META_KEY: json.dumps(meta, sort_keys=True)})
-    tmp = data.with_name(data.name + ".tmp")
-    pq.write_table(table, tmp, compression="zstd")
-    os.replace(tmp, data)
-    return data, media
+    """Write a whole shard at once (see :class:`ShardWriter`)."""
+    w = ShardWriter(root, split, i, n, category_labels)
+    try:
+        for ep in episodes:
+            w.add(ep)
+        return w.close(rows, dropped)
+    except BaseException:
+        w.abort()
+        raise

@@ -29,7 +29,7 @@ from fallgen.audio.mix import Binaural
 from fallgen.audio.room import RirSettings
 from fallgen.config import SPLITS, BuildConfig
 from fallgen.dataset.manifest import finalize
-from fallgen.dataset.writer import row_of, shard_name, write_shard
+from fallgen.dataset.writer import ShardWriter, row_of, shard_name
 from fallgen.physics.events import FallEvent, from_table
 from fallgen.physics.rehearse import rehearsal_dir
 from fallgen.pipeline.episode import EpisodeMaker, Skip
@@ -151,29 +151,33 @@ def make_shard(world: World, maker: EpisodeMaker, cfg: BuildConfig, job: ShardJo
     """Make and write one shard (the caller skips shards that are done: ``job.done(out)``)."""
     name = job.name
     res = ShardResult(name, 0)
-    episodes, rows, dropped = [], [], []
-    for p in job.episodes:
-        pool = pools[(p.split, p.room_kind)]
-        first = pool.index(p.event_id)
-        skipped: list[tuple[str, str]] = []
-        for attempt in range(min(MAX_EVENT_ATTEMPTS, len(pool))):
-            ev = events[pool[(first + attempt) % len(pool)]]
-            try:
-                ep = maker.make(p.episode_id, ev, cfg.root_seed, cfg.generate.frames)
-            except Skip as s:
-                res.skips[s.reason] += 1
-                skipped.append((ev.event_id, s.reason))
-                continue
-            rows.append(row_of(ep, p.split, f"media/{name}.h5", len(episodes), cfg.root_seed,
-                               skipped))
-            episodes.append(ep)
-            res.timings_s.update(ep.timings_s)
-            break
-        else:
-            res.skips["episode_dropped"] += 1
-            dropped.append([p.episode_id, [list(s) for s in skipped]])
-    write_shard(out, job.split, job.index, job.count, episodes, rows, maker.labels, dropped)
-    res.episodes = len(episodes)
+    rows, dropped = [], []
+    writer = ShardWriter(out, job.split, job.index, job.count, maker.labels)
+    try:
+        for p in job.episodes:
+            pool = pools[(p.split, p.room_kind)]
+            first = pool.index(p.event_id)
+            skipped: list[tuple[str, str]] = []
+            for attempt in range(min(MAX_EVENT_ATTEMPTS, len(pool))):
+                ev = events[pool[(first + attempt) % len(pool)]]
+                try:
+                    ep = maker.make(p.episode_id, ev, cfg.root_seed, cfg.generate.frames)
+                except Skip as s:
+                    res.skips[s.reason] += 1
+                    skipped.append((ev.event_id, s.reason))
+                    continue
+                rows.append(row_of(ep, p.split, f"media/{name}.h5", writer.add(ep),
+                                   cfg.root_seed, skipped))
+                res.timings_s.update(ep.timings_s)
+                break
+            else:
+                res.skips["episode_dropped"] += 1
+                dropped.append([p.episode_id, [list(s) for s in skipped]])
+        writer.close(rows, dropped)
+    except BaseException:
+        writer.abort()
+        raise
+    res.episodes = len(rows)
     return res
 
 
@@ -233,14 +237,44 @@ def finalize_build(cfg: BuildConfig, out: Path | None = None, b: Build | None = 
                      "rehearse": dataclasses.asdict(cfg.rehearse)})
 
 
+def precompute_modes(world: World, cfg: BuildConfig, out: Path | None = None, workers: int = 1,
+                     on_done: Callable[[str], None] | None = None) -> int:
+    """Solve (and cache) the modal models the build's events ask for that are not cached
+    yet: every object of the events (targets, distractors, occluders), the furniture parts
+    their falls hit and the rehearsed variants' surface panels (a part hit only because the
+    agent stands in the way is solved when first needed). Returns how many were solved."""
+    from fallgen.audio.catalog import jobs, missing, precompute
+
+    files = _rehearsal_files(cfg, out)
+    objects: set[tuple[str, str, str]] = set()
+    parts: set[tuple[str, int]] = set()
+    for f in files:
+        t = pq.read_table(f, columns=["target", "distractors", "occluders", "contacts"])
+        d = t.select(["target", "distractors", "occluders"]).to_pydict()
+        specs = d["target"] + [p["object"] for col in ("distractors", "occluders")
+                               for row in d[col] for p in row]
+        objects.update((o["category"], o["variant"], o["material"]) for o in specs)
+        hits = pc.list_flatten(t["contacts"])
+        if len(hits):
+            parts.update((f.stem, g) for g in
+                         pc.unique(pc.struct_field(hits, "geom_other")).to_pylist())
+    todo = missing(jobs(world, {f.stem for f in files}, objects, parts))
+    if todo:
+        precompute(world, workers=workers, on_done=on_done, todo=todo)
+    return len(todo)
+
+
 def generate(world: World, cfg: BuildConfig, out: Path | None = None, workers: int = 1,
              progress: Callable[[ShardResult], None] | None = None, *,
              executor: str = "local", ray_address: str | None = None,
              shard_index: int | None = None, num_shards: int | None = None,
-             b: Build | None = None) -> list[ShardResult]:
+             b: Build | None = None,
+             modes_progress: Callable[[str], None] | None = None) -> list[ShardResult]:
     """Make every shard of the build (or of ``shard_index`` of ``num_shards``) that is not done
     yet; then, when the whole build exists, (re)write the card and the manifest. Returns the
     per-shard results. ``workers`` > 1 or ``executor="ray"`` run shards in worker processes.
+    On one machine (local executor, no shard index) the modal models the events need are
+    solved first (:func:`precompute_modes`; ``modes_progress`` gets each one's label).
     ``b``: the build's plan when the caller has it already (it reads every rehearsal file)."""
     out = out or cfg.out
     b = b or build_plan(cfg, out)
@@ -249,6 +283,10 @@ def generate(world: World, cfg: BuildConfig, out: Path | None = None, workers: i
     todo = [j for j in jobs if not j.done(out)]
     done = [ShardResult(j.name, len(j.episodes), skipped_shard=True) for j in jobs
             if j.done(out)]
+    if todo and executor == "local" and shard_index is None:
+        # the modal models first, all cores on them: solving them inside the shard workers
+        # as first needed cost each worker ~400 MB more at its peak
+        precompute_modes(world, cfg, out, workers, on_done=modes_progress)
     if not todo:
         made = iter(done)
     elif executor == "local" and min(workers, len(todo)) <= 1:  # in this process
