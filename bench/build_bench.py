@@ -1,6 +1,6 @@
 """Whole-build speed on this machine, extrapolated to the paper-size build. Prints one JSON line.
 
-    python bench/build_bench.py [--variants 4] [--episodes 60] [--workers 2]
+    python bench/build_bench.py [--variants 4] [--episodes 240] [--workers 2]
 
 A slice of ``configs/full.toml`` (the same rehearsal and generation settings) over ``--variants``
 room variants (half kitchens, half study rooms, spread over the library) and ``--episodes``
@@ -74,7 +74,7 @@ def _rooms(n: int) -> list[str]:
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--variants", type=int, default=4)
-    ap.add_argument("--episodes", type=int, default=60)
+    ap.add_argument("--episodes", type=int, default=240)
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 2)
     ap.add_argument("--cold-modes", action="store_true",
                     help="also time `fallgen assets modes` into an empty cache")
