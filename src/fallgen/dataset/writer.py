@@ -32,7 +32,7 @@ META_KEY = "fallgen"
 
 
 def shard_meta(schema: pa.Schema) -> dict | None:
-    """The metadata :func:`write_shard` put in a shard's schema; None when there is none
+    """The metadata :meth:`ShardWriter.close` put in a shard's schema; None when there is none
     (a ValueError when it is not JSON)."""
     raw = (schema.metadata or {}).get(META_KEY.encode())
     return None if raw is None else json.loads(raw)
