@@ -15,7 +15,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from fallgen.audio.modes import ModalSettings, cache_key, default_cache_dir, modal_model, round_nu
+from fallgen.audio.modes import (ModalSettings, cache_key, cache_path, default_cache_dir,
+                                 modal_model, round_nu)
 from fallgen.pipeline.executor import parallel_map
 from fallgen.world.library import World
 
@@ -85,9 +86,8 @@ def _solve(args) -> str:
 def missing(todo: list[ModalJob], settings: ModalSettings = ModalSettings(),
             cache_dir: Path | None = None) -> list[ModalJob]:
     """The jobs whose models are not in the cache yet."""
-    cache_dir = cache_dir or default_cache_dir()
-    return [j for j in todo if not (cache_dir / f"{cache_key(j.vertices, j.faces, j.nu, settings)}"
-                                                f".npz").exists()]
+    return [j for j in todo
+            if not cache_path(j.vertices, j.faces, j.nu, settings, cache_dir).exists()]
 
 
 def precompute(world: World, settings: ModalSettings = ModalSettings(),

@@ -183,6 +183,12 @@ def default_cache_dir() -> Path:
     return cache_root() / "modes"
 
 
+def cache_path(vertices: np.ndarray, faces: np.ndarray, nu: float,
+               settings: ModalSettings = ModalSettings(), cache_dir: Path | None = None) -> Path:
+    """Where the shape's reference modal model is (or will be) cached."""
+    return (cache_dir or default_cache_dir()) / f"{cache_key(vertices, faces, nu, settings)}.npz"
+
+
 def _save(path: Path, m: ModalModel) -> None:
     buf = io.BytesIO()
     if m.shape_factor != 1.0:
@@ -216,8 +222,7 @@ def modal_model(vertices: np.ndarray, faces: np.ndarray, nu: float,
     the cache or solved by voxel FEM (and cached)."""
     if shell is not None:
         return shell_model(shell, nu, settings)
-    key = cache_key(vertices, faces, nu, settings)
-    path = (cache_dir or default_cache_dir()) / f"{key}.npz"
+    path = cache_path(vertices, faces, nu, settings, cache_dir)
     if path.exists():
         try:
             return _load(path)

@@ -16,7 +16,7 @@ import dataclasses
 import glob
 import itertools
 from collections import Counter
-from collections.abc import Callable, Collection
+from collections.abc import Callable, Collection, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -198,6 +198,18 @@ def _make_job(world: World, maker: EpisodeMaker, cfg: BuildConfig, job: ShardJob
     return make_shard(world, maker, cfg, job, events, pools, out)
 
 
+def _in_process(world: World, cfg: BuildConfig, jobs: list[ShardJob],
+                pools: dict[tuple[str, str], list[str]], out: Path) -> Iterator[ShardResult]:
+    """The shards made one after another in this process, with one episode maker (its GL
+    context closed at the end)."""
+    maker = _maker(world, cfg)
+    try:
+        for job in jobs:
+            yield _make_job(world, maker, cfg, job, pools, out)
+    finally:
+        maker.close()
+
+
 def _work(args: tuple[ShardJob, dict[tuple[str, str], list[str]]]) -> ShardResult:
     job, pools = args
     s = _STATE
@@ -290,9 +302,7 @@ def generate(world: World, cfg: BuildConfig, out: Path | None = None, workers: i
     if not todo:
         made = iter(done)
     elif executor == "local" and min(workers, len(todo)) <= 1:  # in this process
-        maker = _maker(world, cfg)
-        made = itertools.chain(done, (_make_job(world, maker, cfg, job, b.pools, out)
-                                      for job in todo))
+        made = itertools.chain(done, _in_process(world, cfg, todo, b.pools, out))
     else:
         made = itertools.chain(done, parallel_map(_work, [(j, b.pools) for j in todo], _init,
                                                   (str(world.root), cfg, str(out)),

@@ -23,12 +23,14 @@ from typing import Protocol
 import numpy as np
 
 from fallgen.config import SPLITS
-from fallgen.physics.events import FallEvent
 
 
 class EventLike(Protocol):
+    """What planning reads of a fall event (a FallEvent, or generate's EventRef)."""
+
     event_id: str
     room_kind: str
+
 
 #: spawn_key of the plan's own shuffle (episode generators use (episode_id,) keys).
 PLAN_KEY = 2 ** 32 - 1
@@ -68,7 +70,7 @@ def kind_counts(n: int, kinds: list[str]) -> dict[str, int]:
     return {k: n // len(kinds) + (1 if i < n % len(kinds) else 0) for i, k in enumerate(kinds)}
 
 
-def plan(events: Sequence[FallEvent | EventLike], episodes: tuple[int, ...], root_seed: int
+def plan(events: Sequence[EventLike], episodes: tuple[int, ...], root_seed: int
          ) -> list[PlannedEpisode]:
     """The build's episodes from its events (anything with ``event_id`` and ``room_kind``)."""
     if not events:

@@ -114,17 +114,21 @@ class EgoCamera:
         if self._own_context:
             self.frames.context.close()
 
-    def camera(self, pose: Pose) -> mujoco.MjvCamera:
-        cam = mujoco.MjvCamera()
-        cam.type = mujoco.mjtCamera.mjCAMERA_FREE
+    def _eye_and_forward(self, pose: Pose) -> tuple[np.ndarray, np.ndarray]:
+        """The camera's position and unit view direction (room frame) at ``pose``."""
         yaw, tilt = pose.yaw_rad, math.radians(pose.tilt_deg)
         fwd = np.array([math.cos(tilt) * math.cos(yaw), math.cos(tilt) * math.sin(yaw),
                         math.sin(tilt)])
-        eye = np.array([pose.x, pose.y, self.spec.camera_height_m])
+        return np.array([pose.x, pose.y, self.spec.camera_height_m]), fwd
+
+    def camera(self, pose: Pose) -> mujoco.MjvCamera:
+        cam = mujoco.MjvCamera()
+        cam.type = mujoco.mjtCamera.mjCAMERA_FREE
+        eye, fwd = self._eye_and_forward(pose)
         d = 1.0
         cam.lookat[:] = eye + d * fwd
         cam.distance = d
-        cam.azimuth = math.degrees(yaw)
+        cam.azimuth = math.degrees(pose.yaw_rad)
         cam.elevation = pose.tilt_deg
         return cam
 
@@ -158,12 +162,10 @@ class EgoCamera:
             return True
         m = self.scene.model
         pts = np.vstack([geom_box_corners(m, data, g) for g in geoms])
-        yaw, tilt = pose.yaw_rad, math.radians(pose.tilt_deg)
-        f = np.array([math.cos(tilt) * math.cos(yaw), math.cos(tilt) * math.sin(yaw),
-                      math.sin(tilt)])
-        r = np.array([math.sin(yaw), -math.cos(yaw), 0.0])
+        eye, f = self._eye_and_forward(pose)
+        r = np.array([math.sin(pose.yaw_rad), -math.cos(pose.yaw_rad), 0.0])
         u = np.cross(r, f)
-        rel = pts - np.array([pose.x, pose.y, self.spec.camera_height_m])
+        rel = pts - eye
         x, y, z = rel @ r, rel @ u, rel @ f
         t = math.tan(math.radians(FOV_DEG / 2)) * 1.05  # 5 % wider than the image
         slack = 0.02  # m
