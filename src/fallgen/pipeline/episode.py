@@ -150,7 +150,7 @@ class EpisodeMaker:
             if spawn is None:
                 spawn = drawn
             else:
-                sees = camera.pixels_of(data, spawn) >= VISIBLE_PIXELS
+                sees = camera.shows(data, spawn, VISIBLE_PIXELS)
             lap("spawn")
             if clear_of_fall(event, target, spawn, spec):
                 replayed = event  # the agent cannot touch the fall: the rehearsal's contacts
@@ -178,7 +178,7 @@ class EpisodeMaker:
 
             def visible(p: Pose) -> bool:
                 if p not in seen:
-                    seen[p] = camera.pixels_of(data, p) >= VISIBLE_PIXELS
+                    seen[p] = camera.shows(data, p, VISIBLE_PIXELS)
                 return seen[p]
 
             def line_of_sight(p: Pose) -> bool:
@@ -221,7 +221,7 @@ class EpisodeMaker:
             p = c + rng.uniform(-r / 2, r / 2, 2)
             pose = Pose(float(p[0]), float(p[1]), int(rng.integers(HEADINGS)), 0)
             if np.linalg.norm(p - centre[:2]) >= MIN_SPAWN_DISTANCE_M and \
-                    camera.pixels_of(data, pose) < VISIBLE_PIXELS:
+                    not camera.shows(data, pose, VISIBLE_PIXELS):
                 return pose, False
         assert pose is not None
         return pose, True

@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import cv2
 import mujoco
 import numpy as np
 
@@ -27,6 +28,10 @@ from fallgen.world.scene import Scene
 
 WIDTH = HEIGHT = 300
 FOV_DEG = 90.0
+#: How far (pixels) beyond the projected outline of an object's boxes a drawn pixel's centre may
+#: lie: float32 rounding in the renderer's projection is ~1e-4 pixel; tests/vision checks
+#: that the bound holds over thousands of random views.
+HULL_SLACK_PX = 0.05
 
 
 @dataclass(frozen=True)
@@ -105,8 +110,12 @@ class EgoCamera:
         # lookup by geom id, with a slot for "no geom" (-1 -> last)
         self._inst = np.append(inst_of_geom, np.int16(-1))
         self._geoms_of: dict[str, list[int]] = {}
+        self._drawn_geoms_of: dict[str, list[int]] = {}  # in the geom groups views draw
+        drawn = mujoco.MjvOption().geomgroup
         for g, o in enumerate(scene.geom_owner):
             self._geoms_of.setdefault(o, []).append(g)
+            if drawn[min(int(m.geom_group[g]), len(drawn) - 1)] and m.geom_rgba[g, 3] > 0:
+                self._drawn_geoms_of.setdefault(o, []).append(g)
         self._cat = np.append(cat_of_geom, np.int16(-1))
 
     def close(self) -> None:
@@ -147,11 +156,71 @@ class EgoCamera:
 
     def pixels_of(self, data: mujoco.MjData, pose: Pose, owner: str = "obj:target") -> int:
         """How many pixels of the view from ``pose`` show ``owner``: 0 without rendering when
-        its geoms' bounding boxes lie wholly outside the view frustum, else counted in a
-        segmentation render."""
-        if self.outside_view(data, pose, owner):
+        no pixel can (see :meth:`footprint`), else counted in a segmentation render of which
+        only the pixels that can show it are read back."""
+        bound, window = self.footprint(data, pose, owner)
+        if bound == 0:
             return 0
-        return self.render(data, pose, "segmentation").pixels_of(owner)
+        return self._count(data, pose, owner, window)
+
+    def shows(self, data: mujoco.MjData, pose: Pose, pixels: int,
+              owner: str = "obj:target") -> bool:
+        """Whether at least ``pixels`` pixels of the view from ``pose`` show ``owner``
+        (``pixels_of(...) >= pixels``), without rendering when fewer can (a flat button seen
+        edge-on, an object far away)."""
+        bound, window = self.footprint(data, pose, owner)
+        if bound < pixels:
+            return False
+        return self._count(data, pose, owner, window) >= pixels
+
+    def _count(self, data: mujoco.MjData, pose: Pose, owner: str,
+               window: tuple[int, int, int, int] | None) -> int:
+        if owner not in self.instances:
+            return 0
+        geom = self.frames.geoms(data, self.camera(pose), window)
+        return int((self._inst[geom] == self.instances.index(owner)).sum())
+
+    def footprint(self, data: mujoco.MjData, pose: Pose, owner: str
+                  ) -> tuple[float, tuple[int, int, int, int] | None]:
+        """An upper bound on the pixels of the view from ``pose`` that can show ``owner``, and
+        the image window (row0, row1, col0, col1) that holds all of them (None: anywhere).
+
+        The owner's drawn geoms lie inside their oriented boxes, so their pixels are pixels
+        whose centres fall inside the image of a box: the convex hull of its 8 projected
+        corners, grown by ``HULL_SLACK_PX`` for rounding (a pixel is drawn when its centre is
+        covered; the renderer projects in float32). No bound (inf, None) when a corner is behind the camera; 0 when the boxes lie
+        wholly outside the view frustum (:meth:`outside_view`)."""
+        if self.outside_view(data, pose, owner):
+            return 0, None
+        geoms = self._drawn_geoms_of.get(owner, [])
+        m = self.scene.model
+        eye, f = self._eye_and_forward(pose)
+        r = np.array([math.sin(pose.yaw_rad), -math.cos(pose.yaw_rad), 0.0])
+        u = np.cross(r, f)
+        size = self.frames.size
+        half = size / 2
+        scale = half / math.tan(math.radians(FOV_DEG / 2))
+        hulls = []
+        for g in geoms:
+            rel = geom_box_corners(m, data, g) - eye
+            z = rel @ f
+            if (z <= 1e-6).any():
+                return math.inf, None
+            # image coordinates (column, row) from the top-left corner, in pixels
+            hulls.append(np.column_stack([half + scale * (rel @ r) / z,
+                                          half - scale * (rel @ u) / z]))
+        if not hulls:
+            return 0, None
+        pts = np.vstack(hulls)
+        c0, r0 = np.floor(pts.min(0) - 1).astype(int).clip(0, size)
+        c1, r1 = np.ceil(pts.max(0) + 1).astype(int).clip(0, size)
+        if c1 <= c0 or r1 <= r0:
+            return 0, None
+        cc, rr = np.meshgrid(np.arange(c0, c1) + 0.5, np.arange(r0, r1) + 0.5)
+        inside = np.zeros(cc.shape, bool)
+        for h in hulls:
+            inside |= _in_grown_hull(h, cc, rr, HULL_SLACK_PX)
+        return int(inside.sum()), (int(r0), int(r1), int(c0), int(c1))
 
     def outside_view(self, data: mujoco.MjData, pose: Pose, owner: str) -> bool:
         """Whether every corner of ``owner``'s geoms' oriented boxes is beyond one side of the
@@ -171,3 +240,20 @@ class EgoCamera:
         slack = 0.02  # m
         return bool((z < -slack).all() or (x > t * z + slack).all() or (-x > t * z + slack).all()
                     or (y > t * z + slack).all() or (-y > t * z + slack).all())
+
+
+def _in_grown_hull(points: np.ndarray, x: np.ndarray, y: np.ndarray, grow: float) -> np.ndarray:
+    """Whether each (x, y) lies inside the convex hull of ``points`` (N, 2) grown by ``grow``
+    (every edge moved outward; for a degenerate hull, its bounding box grown)."""
+    hull = cv2.convexHull(points.astype(np.float32)).reshape(-1, 2).astype(float)
+    e = np.roll(hull, -1, axis=0) - hull
+    length = np.hypot(e[:, 0], e[:, 1])
+    area2 = float(np.sum(hull[:, 0] * np.roll(hull[:, 1], -1) - np.roll(hull[:, 0], -1) * hull[:, 1]))
+    if len(hull) < 3 or abs(area2) < 1e-9 or (length < 1e-9).any():
+        lo, hi = points.min(0) - grow, points.max(0) + grow
+        return (x >= lo[0]) & (x <= hi[0]) & (y >= lo[1]) & (y <= hi[1])
+    inside = np.ones(x.shape, bool)
+    sign = 1.0 if area2 > 0 else -1.0  # interior to the left of counter-clockwise edges
+    for (px, py), (ex, ey), n in zip(hull, e, length):
+        inside &= sign * (ex * (y - py) - ey * (x - px)) / n >= -grow
+    return inside

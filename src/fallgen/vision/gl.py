@@ -88,11 +88,19 @@ class SceneFrames:
         metres = (d / (raw.astype(np.float64) + c)).astype(np.float32)
         return np.ascontiguousarray(np.flipud(metres))
 
-    def geoms(self, data: mujoco.MjData, camera: mujoco.MjvCamera) -> np.ndarray:
-        """(H, W) int64: the geom id seen at each pixel, -1 for none (or a non-geom)."""
+    def geoms(self, data: mujoco.MjData, camera: mujoco.MjvCamera,
+              window: tuple[int, int, int, int] | None = None) -> np.ndarray:
+        """(H, W) int64: the geom id seen at each pixel, -1 for none (or a non-geom). With
+        ``window`` = (row0, row1, col0, col1) (image rows from the top), only that part of
+        the image is read back (the same pixels; reading is most of a small render's cost on
+        a CPU renderer)."""
         self._draw(data, camera, True)
-        rgb = np.empty((self.size, self.size, 3), np.uint8)
-        mujoco.mjr_readPixels(rgb, None, self._rect, self._con)
+        rect = self._rect
+        if window is not None:
+            r0, r1, c0, c1 = window
+            rect = mujoco.MjrRect(c0, self.size - r1, c1 - c0, r1 - r0)  # GL rows from the bottom
+        rgb = np.empty((rect.height, rect.width, 3), np.uint8)
+        mujoco.mjr_readPixels(rgb, None, rect, self._con)
         c = rgb.astype(np.uint32)
         segid = c[..., 0] + c[..., 1] * (2 ** 8) + c[..., 2] * (2 ** 16)
         n = self._scene.ngeom
