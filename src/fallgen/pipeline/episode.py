@@ -152,27 +152,11 @@ class EpisodeMaker:
             else:
                 sees = camera.shows(data, spawn, VISIBLE_PIXELS)
             lap("spawn")
-            if clear_of_fall(event, target, spawn, spec):
-                replayed = event  # the agent cannot touch the fall: the rehearsal's contacts
-            else:
-                rep = replay(world, event, agent=AgentBody(spawn.x, spawn.y, spawn.yaw_rad,
-                                                           spec.radius_m, spec.height_m))
-                moved = float(np.linalg.norm(np.subtract(rep.settle_pos, event.settle_pos)))
-                turned = quat_angle_deg(rep.settle_quat, event.settle_quat)
-                if moved > SETTLE_TOLERANCE_M or turned > SETTLE_TOLERANCE_DEG:
-                    raise Skip("replay_diverged", f"{moved * 1e3:.1f} mm, {turned:.1f} deg")
-                replayed = _with_contacts(event, rep.contacts)
-            lap("replay")
-            sources = self.sounds.render_sources(replayed, rng)
-            room = RoomAcoustics.from_shoebox(variant.shoebox())
-            head = Listener(np.array([spawn.x, spawn.y, spec.camera_height_m]), spawn.yaw_rad)
-            clip = self.binaural.mix(room, sources, head, rng, self.rir)
-            lap("audio")
-            view = camera.render(data, spawn)
-            lap("render")
-
-            # both searches of the expert and the simulator's check ask about the same poses:
-            # each render and each set of ray casts is made once (the scene is static)
+            # The expert comes first: an event that no reachable pose sees (no_path, about one
+            # attempt in six) is skipped before its replay, sound and first view are made (the
+            # planner draws nothing from rng, so the episode is the same in either order).
+            # Both searches of the expert and the simulator's check ask about the same poses:
+            # each render and each set of ray casts is made once (the scene is static).
             seen: dict[Pose, bool] = {}
             clear: dict[tuple[float, float], bool] = {}
 
@@ -195,6 +179,26 @@ class EpisodeMaker:
             out = run(spawn, ex.plan.actions, grid, centre, visible, spec)
             if not out.success:
                 raise ExpertFailure(f"episode {episode_id}: expert fails ({out})")
+            lap("planning")
+            if clear_of_fall(event, target, spawn, spec):
+                replayed = event  # the agent cannot touch the fall: the rehearsal's contacts
+            else:
+                rep = replay(world, event, agent=AgentBody(spawn.x, spawn.y, spawn.yaw_rad,
+                                                           spec.radius_m, spec.height_m))
+                moved = float(np.linalg.norm(np.subtract(rep.settle_pos, event.settle_pos)))
+                turned = quat_angle_deg(rep.settle_quat, event.settle_quat)
+                if moved > SETTLE_TOLERANCE_M or turned > SETTLE_TOLERANCE_DEG:
+                    raise Skip("replay_diverged", f"{moved * 1e3:.1f} mm, {turned:.1f} deg")
+                replayed = _with_contacts(event, rep.contacts)
+            lap("replay")
+            sources = self.sounds.render_sources(replayed, rng)
+            room = RoomAcoustics.from_shoebox(variant.shoebox())
+            head = Listener(np.array([spawn.x, spawn.y, spec.camera_height_m]), spawn.yaw_rad)
+            clip = self.binaural.mix(room, sources, head, rng, self.rir)
+            lap("audio")
+            view = camera.render(data, spawn)
+            lap("render")
+
             shots: tuple[View, ...] = ()
             if frames == "trajectory":
                 shots = tuple(camera.render(data, p) for p in out.poses)
