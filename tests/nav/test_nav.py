@@ -193,3 +193,26 @@ def test_expert_plans_execute_exactly_in_cluttered_rooms():
                                                   e.plan.goal.heading)
         checked += 1
     assert checked >= 20
+
+
+def test_vectorised_tilt_choice_and_free_lookup_match_their_references():
+    """The planner's batch forms (one call per bucket) agree exactly with the one-pose
+    definitions the simulator uses: tilt_steps and OccupancyGrid.free_for."""
+    from fallgen.nav.expert import NO_TILT, _free_lookup, _tilt_steps, tilt_steps
+
+    rng = np.random.default_rng(7)
+    spec = AgentSpec()
+    for tilt in (0, -15, 30):
+        target = np.array([3.0, 2.0, rng.uniform(0.0, 2.5)])
+        xy = rng.uniform(0.0, 6.0, (400, 2))
+        dist = np.hypot(target[0] - xy[:, 0], target[1] - xy[:, 1])
+        dist[:3] = 0.0  # straight below or above
+        got = _tilt_steps(dist, target, tilt, spec)
+        for (x, y), d, g in zip(xy, dist, got):
+            p = Pose(float(target[0] - d), float(target[1]), 0, tilt)  # same distance
+            want = tilt_steps(p, target, spec)
+            assert (g == NO_TILT) if want is None else g == want
+    free = _free_lookup(WALLED, 0.2)
+    pts = rng.uniform(-1.0, 7.0, (5000, 2))
+    pts[:50] = np.round(pts[:50] / 0.1) * 0.1  # on cell edges
+    assert np.array_equal(free(pts[:, 0], pts[:, 1]), WALLED.free_for(pts, 0.2))

@@ -124,3 +124,42 @@ def test_shared_context_gives_mujoco_renderers_pixels(world):
             assert ours[0].pixels_of("obj:target") > 0 or ours[1].pixels_of("obj:target") > 0
     finally:
         shared.close()
+
+
+def test_footprint_bounds_the_object_pixels_and_checks_skip_only_hidden_views(world):
+    """The footprint (pixel centres inside the projected outline of the object's boxes) is
+    an upper bound on the pixels a render shows, for objects of every shape in random poses
+    and views; pixels_of (reading back only the footprint's window) counts what a full render
+    counts, and shows(k) is pixels >= k, though most views that cannot show k pixels are
+    decided without a render."""
+    rng = np.random.default_rng(11)
+    v = world.variant(VARIANT)
+    cats = world.categories
+    chosen = [("shirt_button", None), ("cup", None), ("book", None), ("wineglass", None)]
+    skipped = checked = 0
+    for cid, _ in chosen:
+        cat = cats.categories[cid]
+        var = cat.variants[0]
+        inst = cats.instance(cid, var.name, next(iter(var.materials)))
+        q = rng.normal(size=4)
+        q /= np.linalg.norm(q)
+        scene = build_scene(v, world.materials, [PlacedObject(
+            "target", inst, (4.0, 1.8, float(rng.uniform(0.02, 0.9))), tuple(q))])
+        d = scene.data()
+        mujoco.mj_forward(scene.model, d)
+        cam = EgoCamera(scene, {"target": cid})
+        try:
+            for _ in range(40):
+                pose = Pose(float(rng.uniform(1.5, 6.0)), float(rng.uniform(0.4, 3.0)),
+                            int(rng.integers(12)), int(rng.choice([-45, -15, 0, 15])))
+                full = cam.render(d, pose, "segmentation").pixels_of("obj:target")
+                bound, window = cam.footprint(d, pose, "obj:target")
+                assert full <= bound, (cid, pose)
+                assert cam.pixels_of(d, pose) == full
+                for k in (1, 4, 30):
+                    assert cam.shows(d, pose, k) == (full >= k)
+                skipped += bound < 4
+                checked += 1
+        finally:
+            cam.close()
+    assert skipped > 0.2 * checked

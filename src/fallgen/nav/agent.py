@@ -73,7 +73,7 @@ HEADING_VECTORS = np.array([[math.cos(k * math.radians(TURN_DEG)),
                              math.sin(k * math.radians(TURN_DEG))] for k in range(HEADINGS)])
 #: a forward move is checked at this many evenly spaced points (every 5 cm, both ends)
 STEP_SAMPLES = int(round(STEP_M / 0.05)) + 1
-_FRACTIONS = np.linspace(0.0, 1.0, STEP_SAMPLES)
+STEP_FRACTIONS = np.linspace(0.0, 1.0, STEP_SAMPLES)
 
 
 def heading_vector(heading: int) -> np.ndarray:
@@ -84,7 +84,7 @@ def step_points(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(..., STEP_SAMPLES, 2) points checked along forward moves from ``a`` to ``b`` (..., 2):
     one definition for the simulator and the planner, so that they never disagree."""
     a, b = np.asarray(a, float), np.asarray(b, float)
-    return a[..., None, :] + _FRACTIONS[:, None] * (b - a)[..., None, :]
+    return a[..., None, :] + STEP_FRACTIONS[:, None] * (b - a)[..., None, :]
 
 
 def segment_free(grid: OccupancyGrid, a: np.ndarray, b: np.ndarray, radius_m: float) -> bool:

@@ -27,8 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from fallgen.nav.agent import (DOWN, FORWARD, FOUND, HEADING_VECTORS, HEADINGS, LEFT, RIGHT,
-                               STEP_M, SUCCESS_DISTANCE_M, TURN_DEG, UP, AgentSpec, Pose,
-                               step_points)
+                               STEP_FRACTIONS, STEP_M, SUCCESS_DISTANCE_M, TURN_DEG, UP,
+                               AgentSpec, Pose)
 from fallgen.nav.occupancy import OccupancyGrid
 
 BIN_M = 0.05
@@ -63,6 +63,38 @@ def tilt_steps(pose: Pose, target, spec: AgentSpec) -> int | None:
     return None if best is None else (best - pose.tilt_deg) // spec.tilt_step_deg
 
 
+NO_TILT = np.iinfo(np.int64).min
+
+
+def _tilt_steps(dist: np.ndarray, target, tilt_deg: int, spec: AgentSpec) -> np.ndarray:
+    """:func:`tilt_steps` for many poses at horizontal distances ``dist`` from ``target`` (all
+    at tilt ``tilt_deg``); ``NO_TILT`` where none brings the object into view."""
+    elev = np.degrees(np.arctan2(target[2] - spec.camera_height_m, np.maximum(dist, 1e-6)))
+    tilts = np.arange(spec.tilt_min_deg, spec.tilt_max_deg + 1, spec.tilt_step_deg)
+    off = np.abs(elev[:, None] - tilts[None, :])
+    off[off > FOV_DEG / 2 - MARGIN_DEG] = np.inf
+    best = np.argmin(off, axis=1)  # the first (lowest) tilt on ties, as tilt_steps
+    steps = (tilts[best] - tilt_deg) // spec.tilt_step_deg
+    return np.where(np.isfinite(off[np.arange(len(dist)), best]), steps, NO_TILT)
+
+
+def _free_lookup(grid: OccupancyGrid, radius_m: float):
+    """``grid.free_for(points, radius_m)`` as a function of coordinate arrays ``(x, y)`` of any
+    shape (one table lookup per point: the search asks it about every forward move)."""
+    # a border for "outside the grid" (clearance 0 there, as grid.clearance_at has it)
+    ok = np.full((grid.shape[0] + 2, grid.shape[1] + 2), 0.0 >= radius_m)
+    ok[1:-1, 1:-1] = grid.clearance >= radius_m
+    r = grid.resolution
+    hi = np.array(grid.shape) + 1
+
+    def free(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        i = np.clip(np.floor(x / r), -1, hi[0] - 1).astype(np.int64) + 1
+        j = np.clip(np.floor(y / r), -1, hi[1] - 1).astype(np.int64) + 1
+        return ok[i, j]
+
+    return free
+
+
 def _search(start: Pose, grid: OccupancyGrid, target, spec: AgentSpec, move_cost: int,
             turn_cost: int, line_of_sight: Callable[[Pose], bool],
             visible: Callable[[Pose], bool], max_view_m: float) -> tuple[Plan, int]:
@@ -76,6 +108,7 @@ def _search(start: Pose, grid: OccupancyGrid, target, spec: AgentSpec, move_cost
     dirs = HEADING_VECTORS
     target = np.asarray(target, float)
     renders = 0
+    free = _free_lookup(grid, spec.radius_m)
 
     def key(x, y, k):
         return ((np.floor(x / BIN_M).astype(np.int64) * nby
@@ -108,7 +141,8 @@ def _search(start: Pose, grid: OccupancyGrid, target, spec: AgentSpec, move_cost
                 result = (total, s, t, goal)
         if result is not None or c is None:
             break
-        states = np.unique(np.concatenate(buckets.pop(c)))
+        # (a state enters a bucket once: only when its cost strictly drops to the bucket's)
+        states = np.sort(np.concatenate(buckets.pop(c)))
         states = states[best[states] == c]
         if len(states) == 0:
             continue
@@ -120,30 +154,28 @@ def _search(start: Pose, grid: OccupancyGrid, target, spec: AgentSpec, move_cost
         eye = np.hypot(dist, target[2] - spec.camera_height_m)  # camera to object
         cand = np.nonzero((dist <= SUCCESS_DISTANCE_M - 0.1) & (eye <= max_view_m)
                           & (np.abs(bearing) <= FOV_DEG / 2 - MARGIN_DEG))[0]
-        for i in cand:
-            s = int(states[i])
-            pose = Pose(float(px[s]), float(py[s]), int(k[i]), start.tilt_deg)
-            t = tilt_steps(pose, target, spec)
-            if t is None:
-                continue
-            heapq.heappush(found, (c + abs(t) * tilt_cost + 1, s, t))
+        if len(cand):
+            steps = _tilt_steps(dist[cand], target, start.tilt_deg, spec)
+            for s, t in zip(states[cand][steps != NO_TILT].tolist(),
+                            steps[steps != NO_TILT].tolist()):
+                heapq.heappush(found, (c + abs(t) * tilt_cost + 1, s, t))
         # expand: forward (collision-checked along the segment) and the two turns
         x0, y0 = px[states], py[states]
         x1, y1 = x0 + STEP_M * dirs[k, 0], y0 + STEP_M * dirs[k, 1]
-        # the simulator's own check of a forward move (nav.agent.step_points)
-        pts = step_points(np.column_stack([x0, y0]), np.column_stack([x1, y1]))
-        ok = grid.free_for(pts.reshape(-1, 2), spec.radius_m).reshape(len(states), -1).all(1)
-        succ = [(states[ok], x1[ok], y1[ok], k[ok], FORWARD, move_cost),
-                (states, x0, y0, (k + 1) % HEADINGS, LEFT, turn_cost),
-                (states, x0, y0, (k - 1) % HEADINGS, RIGHT, turn_cost)]
-        for src, x, y, kk, a, cost in succ:
-            if len(src) == 0:
-                continue
-            s = key(x, y, kk)
-            inside = (s >= 0) & (s < size)
-            src, x, y, s = src[inside], x[inside], y[inside], s[inside]
-            s, first = np.unique(s, return_index=True)
-            src, x, y = src[first], x[first], y[first]
+        # the simulator's own check of a forward move (the points of nav.agent.step_points)
+        ok = free(x0[:, None] + STEP_FRACTIONS * (x1 - x0)[:, None],
+                  y0[:, None] + STEP_FRACTIONS * (y1 - y0)[:, None]).all(1)
+        # a forward move's bin is new: the first pose (in state order) to reach it wins; a turn
+        # stays in its own bin (state = bin * HEADINGS + heading), one state per source
+        src, x, y = states[ok], x1[ok], y1[ok]
+        s = key(x, y, k[ok])
+        inside = (s >= 0) & (s < size)
+        src, x, y, s = src[inside], x[inside], y[inside], s[inside]
+        s, first = np.unique(s, return_index=True)
+        succ = [(s, src[first], x[first], y[first], FORWARD, move_cost),
+                (states - k + (k + 1) % HEADINGS, states, x0, y0, LEFT, turn_cost),
+                (states - k + (k - 1) % HEADINGS, states, x0, y0, RIGHT, turn_cost)]
+        for s, src, x, y, a, cost in succ:
             better = best[s] > c + cost
             s, src, x, y = s[better], src[better], x[better], y[better]
             if len(s) == 0:
