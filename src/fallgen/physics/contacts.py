@@ -147,21 +147,22 @@ class ContactRecorder:
         v, w, x = self._state(d)
         xmat = d.xmat[self.body].reshape(3, 3)
         seen: dict[int, tuple] = {}
-        for i in hits:
-            c = d.contact[i]
-            g1, g2 = int(geoms[i, 0]), int(geoms[i, 1])
-            if mine_mask[i, 0]:
+        # the contact arrays, read once per step (d.contact[i] builds a struct view per call)
+        frames, points = d.contact.frame, d.contact.pos
+        for i, (g1, g2), first_mine in zip(hits.tolist(), geoms[hits].tolist(),
+                                           mine_mask[hits, 0].tolist()):
+            if first_mine:
                 mine, other, sign = g1, g2, -1.0
             else:
                 mine, other, sign = g2, g1, 1.0
-            mujoco.mj_contactForce(self.m, d, int(i), self._force)
+            mujoco.mj_contactForce(self.m, d, i, self._force)
             fn = float(self._force[0])
             if other in seen:  # several contact points with one geom: sum forces
                 s = seen[other]
                 seen[other] = (s[0], s[1], s[2], s[3] + fn)
             else:
-                n = sign * np.asarray(c.frame[:3])  # frame normal points geom1 -> geom2
-                seen[other] = (mine, np.asarray(c.pos).copy(), n, fn)
+                n = sign * frames[i, :3]  # frame normal points geom1 -> geom2
+                seen[other] = (mine, points[i].copy(), n, fn)
         for other, (mine, pos, n, fn) in seen.items():
             vp = v + _cross(w, pos - x)  # object's contact point velocity (others static)
             vn = float(vp @ n)  # > 0 separating

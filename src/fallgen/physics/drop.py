@@ -175,13 +175,15 @@ CHECK_EVERY_STEPS = 10
 
 def _simulate(world: World, variant: RoomVariant, objs: list[PlacedObject], linvel, angvel,
               criteria: SettleCriteria, max_steps: int | None = None,
-              keep=lambda res, com: True, agent: AgentBody | None = None
+              keep=lambda res, com: True, agent: AgentBody | None = None,
+              floor_z: float | None = None
               ) -> tuple[SettleResult, list[ContactEvent], np.ndarray, float, bool]:
     """Simulate the target's fall in two passes over one compiled model: a fast pass in C
     chunks decides when (and whether) it settles; if it is worth keeping (``keep(result,
     centre of mass)``), a second pass from the same initial state records contacts step by step
     for exactly as many steps and must end in the same state bit for bit. ``max_steps`` (a
-    replay) skips the first pass."""
+    replay) skips the first pass. ``floor_z``: the first pass stops as soon as the centre of
+    mass can no longer climb back to that height (:func:`_below_for_good`)."""
     scene = build_scene(variant, world.materials, objs, agent=agent, settings=PHYSICS)
     m = scene.model
     b = scene.object_body["target"]
@@ -200,7 +202,9 @@ def _simulate(world: World, variant: RoomVariant, objs: list[PlacedObject], linv
         and d.contact[i].dist < -1e-3 for i in range(d.ncon))
     first = None
     if max_steps is None:
-        first = simulate_until_settled(m, d, b, criteria, chunk=CHECK_EVERY_STEPS)
+        first = simulate_until_settled(
+            m, d, b, criteria, chunk=CHECK_EVERY_STEPS,
+            give_up=None if floor_z is None else _below_for_good(m, b, floor_z))
         if overlap or not first.settled or not keep(first, d.xipos[b]):
             return first, [], d.xipos[b].copy(), float(m.body_mass[b]), overlap
         max_steps = first.steps
@@ -214,6 +218,24 @@ def _simulate(world: World, variant: RoomVariant, objs: list[PlacedObject], linv
         # the first pass's verdict, with the swept area seen at every step of the second
         res = dataclasses.replace(first, xy_min=res.xy_min, xy_max=res.xy_max)
     return res, rec.finish(), d.xipos[b].copy(), float(m.body_mass[b]), overlap
+
+
+def _below_for_good(m: mujoco.MjModel, body: int, floor_z: float):
+    """``give_up(data)``: whether body ``body`` (the only moving one) can no longer bring its
+    centre of mass up to ``floor_z``: its height plus the rise all its kinetic energy
+    (translation and rotation) could buy, with 50 % and 2 cm to spare for the energy MuJoCo's
+    soft contacts can return, is below it. A trial whose object fell off a table is then
+    stopped when it lands, instead of rolling on the floor until it rests or times out."""
+    vadr = m.jnt_dofadr[m.body_jntadr[body]]
+    mass, inertia = float(m.body_mass[body]), m.body_inertia[body].copy()
+    g = float(np.linalg.norm(m.opt.gravity))
+
+    def give_up(d: mujoco.MjData) -> bool:
+        v, w = d.qvel[vadr:vadr + 3], d.qvel[vadr + 3:vadr + 6]  # w in the body frame
+        energy = 0.5 * mass * float(v @ v) + 0.5 * float(inertia @ (w * w))
+        return float(d.xipos[body, 2]) + 1.5 * energy / (mass * g) + 0.02 < floor_z
+
+    return give_up
 
 
 def run_trial(world: World, variant: RoomVariant, zone: Zone, trial: int,
@@ -258,7 +280,7 @@ def run_trial(world: World, variant: RoomVariant, zone: Zone, trial: int,
     objs = _scene_objects(world, target, start, quat, distractors, occluders)
     res, contacts, com, mass, overlap = _simulate(
         world, variant, objs, linvel, angvel, cfg.settle,
-        keep=lambda r, c: _judge(variant, zone, r, c) == "kept")
+        keep=lambda r, c: _judge(variant, zone, r, c) == "kept", floor_z=zone.volume.zmin)
     if overlap:
         return TrialOutcome("start_overlap", None, cid)
     reason = _judge(variant, zone, res, com)
@@ -285,6 +307,8 @@ def _judge(variant: RoomVariant, zone: Zone, res: SettleResult, com: np.ndarray)
         return "left_room"
     if com[2] < -0.01 or res.min_z_m < -0.05:
         return "tunnelled"
+    if res.gave_up:
+        return "outside_zone"  # fell below the zone for good
     if not res.settled:
         return "not_settled"
     if not zone.volume.contains(com[None, :])[0]:

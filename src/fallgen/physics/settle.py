@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import mujoco
@@ -43,6 +44,7 @@ class SettleResult:
     # step when stepping one by one): with the body's bounding radius, the area the fall swept
     xy_min: tuple[float, float] = (math.inf, math.inf)
     xy_max: tuple[float, float] = (-math.inf, -math.inf)
+    gave_up: bool = False  # stopped early because ``give_up`` said the trial was lost
 
 
 _WATCHED = ("mjWARN_BADQACC", "mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_CONTACTFULL",
@@ -78,14 +80,18 @@ def _still(poses: deque, c: SettleCriteria) -> bool:
 def simulate_until_settled(model: mujoco.MjModel, data: mujoco.MjData, body_id: int,
                            criteria: SettleCriteria = SettleCriteria(),
                            recorder=None, max_steps: int | None = None,
-                           chunk: int = 1) -> SettleResult:
+                           chunk: int = 1,
+                           give_up: Callable[[mujoco.MjData], bool] | None = None
+                           ) -> SettleResult:
     """Step ``data`` until body ``body_id`` (with a free joint) settles or times out.
 
     ``recorder`` (e.g. a :class:`~fallgen.physics.contacts.ContactRecorder`) gets
     ``before_step``/``after_step`` around every step. ``max_steps`` replays exactly that many
     steps (the settle test still runs but does not stop the loop). Without a recorder, ``chunk``
     steps run in C between checks (the settle test, NaN and warnings are then checked every
-    ``chunk`` steps; the trajectory is the same as stepping one by one).
+    ``chunk`` steps; the trajectory is the same as stepping one by one). ``give_up(data)``,
+    asked at every pose sample of a run that is not a replay, stops a trial that can no longer
+    be kept (``gave_up``; not settled).
     """
     jnt = model.body_jntadr[body_id]
     qadr, vadr = model.jnt_qposadr[jnt], model.jnt_dofadr[jnt]
@@ -96,7 +102,7 @@ def simulate_until_settled(model: mujoco.MjModel, data: mujoco.MjData, body_id: 
     replay = max_steps is not None
     if max_steps is None:
         max_steps = int(round(criteria.timeout_s / dt))
-    calm, settled_at = 0, None
+    calm, settled_at, gave_up = 0, None, False
     max_speed, min_z, unstable = 0.0, np.inf, False
     x_lo = x_hi = float(data.qpos[qadr])
     y_lo = y_hi = float(data.qpos[qadr + 1])
@@ -129,6 +135,9 @@ def simulate_until_settled(model: mujoco.MjModel, data: mujoco.MjData, body_id: 
         sampled = steps % POSE_EVERY_STEPS == 0
         if sampled:
             poses.append((data.qpos[qadr:qadr + 3].copy(), data.qpos[qadr + 3:qadr + 7].copy()))
+        if sampled and give_up is not None and not replay and give_up(data):
+            gave_up = True
+            break
         if settled_at is None:
             if calm >= hold:
                 settled_at = (steps - hold * n) * dt
@@ -137,7 +146,7 @@ def simulate_until_settled(model: mujoco.MjModel, data: mujoco.MjData, body_id: 
             if settled_at is not None and not replay:
                 break
     return SettleResult(
-        settled=settled_at is not None and not unstable,
+        settled=settled_at is not None and not unstable and not gave_up,
         time_s=settled_at if settled_at is not None else data.time,
         pos=data.qpos[qadr:qadr + 3].copy(),
         quat=data.qpos[qadr + 3:qadr + 7].copy(),
@@ -148,4 +157,5 @@ def simulate_until_settled(model: mujoco.MjModel, data: mujoco.MjData, body_id: 
         steps=steps,
         xy_min=(x_lo, y_lo),
         xy_max=(x_hi, y_hi),
+        gave_up=gave_up,
     )
