@@ -53,3 +53,29 @@ def test_placed_and_contains():
     assert not w.contains(np.array([[2.0, 4.15, 0.5]]))[0]
     assert footprint_inside(Box((0, 0, 0), (0.1, 0.1, 0.1)), Box((0, 0, 0), (0.2, 0.2, 0.2)))
     assert not footprint_inside(Box((0.15, 0, 0), (0.1, 0.1, 0.1)), Box((0, 0, 0), (0.2, 0.2, 0.2)))
+
+
+def test_vectorised_part_footprints_overlap_as_overlap2d():
+    """The rooms' batch overlap test (used for every zone's drop region) equals overlap2d."""
+    from fallgen.world.rooms import _Footprints
+
+    rng = np.random.default_rng(5)
+
+    class _Item:
+        def __init__(self, parts):
+            self.id, self.parts = "item", parts
+
+    class _Part:
+        def __init__(self, name, box):
+            self.name, self.box = name, box
+
+    boxes = [Box(tuple(rng.uniform(0, 3, 3)), tuple(rng.uniform(0.05, 0.8, 3)),
+                 float(rng.uniform(-math.pi, math.pi))) for _ in range(60)]
+    fp = _Footprints([_Item([_Part(f"p{i}", b) for i, b in enumerate(boxes)])])
+    for _ in range(20):
+        other = Box(tuple(rng.uniform(0, 3, 3)), tuple(rng.uniform(0.05, 0.8, 3)),
+                    float(rng.uniform(-math.pi, math.pi)))
+        got = fp.overlap(np.arange(len(boxes)), other)
+        want = np.array([overlap2d(b, other) for b in boxes])
+        assert np.allclose(got, want, rtol=0, atol=1e-12)
+        assert ((got > 0) == (want > 0)).all()
