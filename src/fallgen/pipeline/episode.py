@@ -268,17 +268,23 @@ def _target_box(scene, data) -> tuple[np.ndarray, np.ndarray]:
     return pts.min(0), pts.max(0)
 
 
+#: The geom groups views draw (MjvOption's default): the ray casts see what the camera sees.
+_DRAWN_GROUPS = np.array([1, 1, 1, 0, 0, 0], np.uint8)
+
+
 def _line_of_sight(scene, data, pose: Pose, points: np.ndarray, spec: AgentSpec) -> bool:
     """Nothing but the target between the camera and one of the target's ``points`` (MuJoCo
-    ray casts on the visible geom groups)."""
+    ray casts on the drawn geom groups, all of a pose's rays in one call)."""
     eye = np.array([pose.x, pose.y, spec.camera_height_m])
-    geomid = np.zeros(1, np.int32)
-    groups = np.array([1, 1, 1, 0, 0, 0], np.uint8)
-    for p in points:
-        v = p - eye
-        dist = float(np.linalg.norm(v))
-        hit = mujoco.mj_ray(scene.model, data, eye, v / dist, groups, 1, -1, geomid)
-        if hit < 0 or hit >= dist or scene.geom_owner[int(geomid[0])] == "obj:target":
+    v = points - eye
+    dist = np.sqrt((v * v).sum(1))
+    n = len(points)
+    geomid = np.zeros(n, np.int32)
+    hit = np.zeros(n)
+    mujoco.mj_multiRay(scene.model, data, eye, (v / dist[:, None]).ravel(), _DRAWN_GROUPS, 1,
+                       -1, geomid, hit, None, n, mujoco.mjMAXVAL)
+    for h, g, d in zip(hit.tolist(), geomid.tolist(), dist.tolist()):
+        if h < 0 or h >= d or scene.geom_owner[g] == "obj:target":
             return True
     return False
 
