@@ -136,12 +136,11 @@ class Binaural:
             h, t_c, level = self.early(room, s.position, listener, settings)
             if i == loudest:
                 late_from = (t_c, level)
-            for e in range(2):
-                y = oaconvolve(sig, h[e])[:n]
-                out[e, :len(y)] += y
+            # both ears in one call (the signal's transform is made once)
+            y = oaconvolve(sig[None, :], h, axes=-1)[:, :n]
+            out[:, :y.shape[1]] += y
         late = self.late(room, late_from[1], late_from[0], n, fs, rng)
-        for e in range(2):
-            out[e] += fftconvolve(total, late[e])[:n]
+        out += fftconvolve(total[None, :], late, axes=-1)[:, :n]
         audio = out / FULL_SCALE_PA
         peak = float(np.abs(audio).max())
         gain = 1.0 if peak <= CEILING else CEILING / peak
