@@ -147,3 +147,33 @@ def test_spinning_fork_does_not_diverge(world):
     out = run_trial(world, v, v.zone("z00"), 9, cfg, 2022)
     assert out.category == "fork"
     assert out.reason != "unstable"
+
+
+def test_a_trial_below_its_zone_for_good_is_stopped(world):
+    """A trial is stopped early only when the object cannot climb back to the zone: resting
+    below it, yes; moving up fast enough, or spinning with enough energy, no."""
+    import mujoco
+
+    from fallgen.physics.drop import PHYSICS, _below_for_good
+    from fallgen.world.scene import PlacedObject, build_scene
+
+    inst = world.categories.instance("cup", "mug", "ceramic")
+    scene = build_scene(world.variant(ROOMS[0]), world.materials,
+                        [PlacedObject("target", inst, (2.0, 1.0, 0.3))], settings=PHYSICS)
+    m, b = scene.model, scene.object_body["target"]
+    d = scene.data()
+    mujoco.mj_forward(m, d)
+    vadr = m.jnt_dofadr[m.body_jntadr[b]]
+    zone_floor = 0.8
+    give_up = _below_for_good(m, b, zone_floor)
+    assert give_up(d)
+    assert not _below_for_good(m, b, float(d.xipos[b, 2]))(d)  # already at the zone's floor
+    d.qvel[vadr + 2] = 4.0  # rises 0.82 m on its own
+    assert not give_up(d)
+    d.qvel[vadr + 2] = 2.0  # 0.2 m (x 1.5 margin): still short
+    assert give_up(d)
+    d.qvel[vadr:vadr + 6] = 0.0
+    rise = zone_floor - float(d.xipos[b, 2])
+    w = np.sqrt(2 * m.body_mass[b] * 9.81 * rise / m.body_inertia[b].sum())
+    d.qvel[vadr + 3:vadr + 6] = w  # enough spin to lift it there
+    assert not give_up(d)

@@ -26,8 +26,8 @@ KINDS = ("impact", "scrape", "roll")
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                     a[0] * b[1] - a[1] * b[0]])
+    (a0, a1, a2), (b0, b1, b2) = a.tolist(), b.tolist()  # Python floats: the same IEEE sums
+    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
 
 
 @dataclass(frozen=True)

@@ -21,8 +21,8 @@ import numpy as np
 from fallgen.config import RehearseConfig
 from fallgen.physics.contacts import ContactEvent, ContactRecorder
 from fallgen.physics.events import FallEvent, ObjectSpec, Placement
-from fallgen.physics.settle import SettleCriteria, SettleResult, mujoco_warnings, \
-    simulate_until_settled
+from fallgen.physics.settle import (SettleCriteria, SettleResult, mujoco_warnings,
+                                   record_steps, simulate_until_settled)
 from fallgen.world.library import World
 from fallgen.world.objects import ObjectInstance
 from fallgen.world.rooms import RoomVariant, Zone
@@ -210,13 +210,15 @@ def _simulate(world: World, variant: RoomVariant, objs: list[PlacedObject], linv
         max_steps = first.steps
         d = fresh()
     rec = ContactRecorder(m, b, scene.geom_owner, scene.geom_material)
-    res = simulate_until_settled(m, d, b, criteria, recorder=rec, max_steps=max_steps)
-    if first is not None:
-        if not (np.array_equal(first.pos, res.pos) and np.array_equal(first.quat, res.quat)):
+    if first is None:  # a replay: its own verdict
+        res = simulate_until_settled(m, d, b, criteria, recorder=rec, max_steps=max_steps)
+    else:
+        pos, quat, xy_min, xy_max = record_steps(m, d, b, rec, max_steps)
+        if not (np.array_equal(first.pos, pos) and np.array_equal(first.quat, quat)):
             raise RuntimeError("the recording pass diverged from the first pass: MuJoCo is not "
                                "deterministic here")
         # the first pass's verdict, with the swept area seen at every step of the second
-        res = dataclasses.replace(first, xy_min=res.xy_min, xy_max=res.xy_max)
+        res = dataclasses.replace(first, xy_min=xy_min, xy_max=xy_max)
     return res, rec.finish(), d.xipos[b].copy(), float(m.body_mass[b]), overlap
 
 

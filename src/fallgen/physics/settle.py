@@ -159,3 +159,32 @@ def simulate_until_settled(model: mujoco.MjModel, data: mujoco.MjData, body_id: 
         xy_max=(x_hi, y_hi),
         gave_up=gave_up,
     )
+
+
+def record_steps(model: mujoco.MjModel, data: mujoco.MjData, body_id: int, recorder,
+                 steps: int) -> tuple[np.ndarray, np.ndarray, tuple[float, float],
+                                       tuple[float, float]]:
+    """Step ``data`` exactly ``steps`` times, one by one, with ``recorder`` around every step,
+    and nothing else: the recording pass of a fall whose verdict a first pass already gave
+    (:func:`simulate_until_settled` with ``chunk``). Returns the body's final position and
+    orientation and the lowest and highest x, y of its origin over the start and every step
+    (``SettleResult.xy_min`` / ``xy_max``)."""
+    qadr = model.jnt_qposadr[model.body_jntadr[body_id]]
+    qpos = data.qpos
+    x_lo = x_hi = float(qpos[qadr])
+    y_lo = y_hi = float(qpos[qadr + 1])
+    before, after, step = recorder.before_step, recorder.after_step, mujoco.mj_step
+    for _ in range(steps):
+        before(data)
+        step(model, data)
+        after(data)
+        x, y = float(qpos[qadr]), float(qpos[qadr + 1])
+        if x < x_lo:
+            x_lo = x
+        elif x > x_hi:
+            x_hi = x
+        if y < y_lo:
+            y_lo = y
+        elif y > y_hi:
+            y_hi = y
+    return qpos[qadr:qadr + 3].copy(), qpos[qadr + 3:qadr + 7].copy(), (x_lo, y_lo), (x_hi, y_hi)
