@@ -195,10 +195,26 @@ def test_expert_plans_execute_exactly_in_cluttered_rooms():
     assert checked >= 20
 
 
+def _one_pose_tilt_steps(pose, target, spec):
+    """The tilt rule for one pose, spelled out: the tilt nearest the object's elevation within
+    the vertical field of view less the margin (the lowest on ties), None if there is none."""
+    from fallgen.nav.expert import FOV_DEG, MARGIN_DEG
+
+    d = float(np.hypot(target[0] - pose.x, target[1] - pose.y))
+    elev = math.degrees(math.atan2(target[2] - spec.camera_height_m, max(d, 1e-6)))
+    best = None
+    for t in range(spec.tilt_min_deg, spec.tilt_max_deg + 1, spec.tilt_step_deg):
+        if abs(elev - t) <= FOV_DEG / 2 - MARGIN_DEG and (
+                best is None or abs(elev - t) < abs(elev - best)):
+            best = t
+    return None if best is None else (best - pose.tilt_deg) // spec.tilt_step_deg
+
+
 def test_vectorised_tilt_choice_and_free_lookup_match_their_references():
-    """The planner's batch forms (one call per bucket) agree exactly with the one-pose
-    definitions the simulator uses: tilt_steps and OccupancyGrid.free_for."""
-    from fallgen.nav.expert import NO_TILT, _free_lookup, _tilt_steps, tilt_steps
+    """The planner's batch forms (one call per bucket) agree exactly with one-pose
+    definitions: the tilt rule spelled out for one pose, and OccupancyGrid.free_for (the
+    simulator's check)."""
+    from fallgen.nav.expert import NO_TILT, _free_lookup, tilt_steps
 
     rng = np.random.default_rng(7)
     spec = AgentSpec()
@@ -207,10 +223,10 @@ def test_vectorised_tilt_choice_and_free_lookup_match_their_references():
         xy = rng.uniform(0.0, 6.0, (400, 2))
         dist = np.hypot(target[0] - xy[:, 0], target[1] - xy[:, 1])
         dist[:3] = 0.0  # straight below or above
-        got = _tilt_steps(dist, target, tilt, spec)
-        for (x, y), d, g in zip(xy, dist, got):
+        got = tilt_steps(dist, target, tilt, spec)
+        for d, g in zip(dist, got):
             p = Pose(float(target[0] - d), float(target[1]), 0, tilt)  # same distance
-            want = tilt_steps(p, target, spec)
+            want = _one_pose_tilt_steps(p, target, spec)
             assert (g == NO_TILT) if want is None else g == want
     free = _free_lookup(WALLED, 0.2)
     pts = rng.uniform(-1.0, 7.0, (5000, 2))

@@ -129,7 +129,8 @@ def write_card(root: Path, config_text: str, root_seed: int, versions: dict[str,
               "## Layout", "",
               "- `data/{split}-{i:05d}-of-{n:05d}.parquet`: one row per episode.",
               "- `media/{split}-{i:05d}-of-{n:05d}.h5`: the episodes' arrays, one chunk per "
-              "episode (gzip, except the audio: float32 audio hardly compresses). Attributes: `actions` (names of the action indices), `category_labels` "
+              "episode (gzip, except the audio: float32 audio hardly compresses). "
+              "Attributes: `actions` (names of the action indices), `category_labels` "
               "(names of the category segmentation values).",
               "- `rehearsal/*.parquet`: the fall events (start and rest state, every contact).",
               "- `manifest.json`: config, versions, root seed, counts, sha256 of every file; "

@@ -50,30 +50,18 @@ class NoPath(RuntimeError):
     """No pose from which the object is visible can be reached."""
 
 
-def tilt_steps(pose: Pose, target, spec: AgentSpec) -> int | None:
-    """Signed tilt steps that bring the object's centre nearest the view centre (None if the
-    tilt limits cannot bring it within the vertical field of view less the margin)."""
-    d = float(np.hypot(target[0] - pose.x, target[1] - pose.y))
-    elev = math.degrees(math.atan2(target[2] - spec.camera_height_m, max(d, 1e-6)))
-    best = None
-    for t in range(spec.tilt_min_deg, spec.tilt_max_deg + 1, spec.tilt_step_deg):
-        if abs(elev - t) <= FOV_DEG / 2 - MARGIN_DEG and (
-                best is None or abs(elev - t) < abs(elev - best)):
-            best = t
-    return None if best is None else (best - pose.tilt_deg) // spec.tilt_step_deg
-
-
 NO_TILT = np.iinfo(np.int64).min
 
 
-def _tilt_steps(dist: np.ndarray, target, tilt_deg: int, spec: AgentSpec) -> np.ndarray:
-    """:func:`tilt_steps` for many poses at horizontal distances ``dist`` from ``target`` (all
-    at tilt ``tilt_deg``); ``NO_TILT`` where none brings the object into view."""
+def tilt_steps(dist: np.ndarray, target, tilt_deg: int, spec: AgentSpec) -> np.ndarray:
+    """Signed tilt steps, for poses at horizontal distances ``dist`` from ``target`` (all at
+    tilt ``tilt_deg``), that bring the object's centre nearest the view centre within the
+    vertical field of view less the margin; ``NO_TILT`` where the tilt limits cannot."""
     elev = np.degrees(np.arctan2(target[2] - spec.camera_height_m, np.maximum(dist, 1e-6)))
     tilts = np.arange(spec.tilt_min_deg, spec.tilt_max_deg + 1, spec.tilt_step_deg)
     off = np.abs(elev[:, None] - tilts[None, :])
     off[off > FOV_DEG / 2 - MARGIN_DEG] = np.inf
-    best = np.argmin(off, axis=1)  # the first (lowest) tilt on ties, as tilt_steps
+    best = np.argmin(off, axis=1)  # the first (lowest) tilt on ties
     steps = (tilts[best] - tilt_deg) // spec.tilt_step_deg
     return np.where(np.isfinite(off[np.arange(len(dist)), best]), steps, NO_TILT)
 
@@ -155,7 +143,7 @@ def _search(start: Pose, grid: OccupancyGrid, target, spec: AgentSpec, move_cost
         cand = np.nonzero((dist <= SUCCESS_DISTANCE_M - 0.1) & (eye <= max_view_m)
                           & (np.abs(bearing) <= FOV_DEG / 2 - MARGIN_DEG))[0]
         if len(cand):
-            steps = _tilt_steps(dist[cand], target, start.tilt_deg, spec)
+            steps = tilt_steps(dist[cand], target, start.tilt_deg, spec)
             for s, t in zip(states[cand][steps != NO_TILT].tolist(),
                             steps[steps != NO_TILT].tolist()):
                 heapq.heappush(found, (c + abs(t) * tilt_cost + 1, s, t))

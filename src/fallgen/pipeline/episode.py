@@ -42,7 +42,8 @@ from fallgen.nav.occupancy import (BOX_SIGNS, OccupancyGrid, geom_box_corners, o
                                    room_samples)
 from fallgen.physics.drop import _instance, replay
 from fallgen.physics.events import FallEvent
-from fallgen.vision.camera import WIDTH, EgoCamera, View, world_category_labels
+from fallgen.vision.camera import (DRAWN_GROUPS, WIDTH, EgoCamera, View,
+                                   world_category_labels)
 from fallgen.vision.gl import GLContext
 from fallgen.world.library import World
 from fallgen.world.scene import AgentBody, PlacedObject, build_scene
@@ -268,20 +269,16 @@ def _target_box(scene, data) -> tuple[np.ndarray, np.ndarray]:
     return pts.min(0), pts.max(0)
 
 
-#: The geom groups views draw (MjvOption's default): the ray casts see what the camera sees.
-_DRAWN_GROUPS = np.array([1, 1, 1, 0, 0, 0], np.uint8)
-
-
 def _line_of_sight(scene, data, pose: Pose, points: np.ndarray, spec: AgentSpec) -> bool:
     """Nothing but the target between the camera and one of the target's ``points`` (MuJoCo
-    ray casts on the drawn geom groups, all of a pose's rays in one call)."""
+    ray casts on the geom groups the camera draws, all of a pose's rays in one call)."""
     eye = np.array([pose.x, pose.y, spec.camera_height_m])
     v = points - eye
     dist = np.sqrt((v * v).sum(1))
     n = len(points)
     geomid = np.zeros(n, np.int32)
     hit = np.zeros(n)
-    mujoco.mj_multiRay(scene.model, data, eye, (v / dist[:, None]).ravel(), _DRAWN_GROUPS, 1,
+    mujoco.mj_multiRay(scene.model, data, eye, (v / dist[:, None]).ravel(), DRAWN_GROUPS, 1,
                        -1, geomid, hit, None, n, mujoco.mjMAXVAL)
     for h, g, d in zip(hit.tolist(), geomid.tolist(), dist.tolist()):
         if h < 0 or h >= d or scene.geom_owner[g] == "obj:target":

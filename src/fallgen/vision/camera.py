@@ -32,6 +32,8 @@ FOV_DEG = 90.0
 #: lie: float32 rounding in the renderer's projection is ~1e-4 pixel; tests/vision checks
 #: that the bound holds over thousands of random views.
 HULL_SLACK_PX = 0.05
+#: The geom groups views draw (MuJoCo's default visualisation options): 0, 1 and 2.
+DRAWN_GROUPS = np.array(mujoco.MjvOption().geomgroup, np.uint8)
 
 
 @dataclass(frozen=True)
@@ -111,10 +113,10 @@ class EgoCamera:
         self._inst = np.append(inst_of_geom, np.int16(-1))
         self._geoms_of: dict[str, list[int]] = {}
         self._drawn_geoms_of: dict[str, list[int]] = {}  # in the geom groups views draw
-        drawn = mujoco.MjvOption().geomgroup
         for g, o in enumerate(scene.geom_owner):
             self._geoms_of.setdefault(o, []).append(g)
-            if drawn[min(int(m.geom_group[g]), len(drawn) - 1)] and m.geom_rgba[g, 3] > 0:
+            if DRAWN_GROUPS[min(int(m.geom_group[g]), len(DRAWN_GROUPS) - 1)] \
+                    and m.geom_rgba[g, 3] > 0:
                 self._drawn_geoms_of.setdefault(o, []).append(g)
         self._cat = np.append(cat_of_geom, np.int16(-1))
 
@@ -129,6 +131,16 @@ class EgoCamera:
         fwd = np.array([math.cos(tilt) * math.cos(yaw), math.cos(tilt) * math.sin(yaw),
                         math.sin(tilt)])
         return np.array([pose.x, pose.y, self.spec.camera_height_m]), fwd
+
+    def _view_coordinates(self, pose: Pose, points: np.ndarray
+                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(x right, y up, z forward) of room-frame ``points`` (N, 3) in the camera's frame at
+        ``pose`` (a free camera: its right vector is horizontal)."""
+        eye, f = self._eye_and_forward(pose)
+        r = np.array([math.sin(pose.yaw_rad), -math.cos(pose.yaw_rad), 0.0])
+        u = np.cross(r, f)
+        rel = points - eye
+        return rel @ r, rel @ u, rel @ f
 
     def camera(self, pose: Pose) -> mujoco.MjvCamera:
         cam = mujoco.MjvCamera()
@@ -188,27 +200,23 @@ class EgoCamera:
         The owner's drawn geoms lie inside their oriented boxes, so their pixels are pixels
         whose centres fall inside the image of a box: the convex hull of its 8 projected
         corners, grown by ``HULL_SLACK_PX`` for rounding (a pixel is drawn when its centre is
-        covered; the renderer projects in float32). No bound (inf, None) when a corner is behind the camera; 0 when the boxes lie
-        wholly outside the view frustum (:meth:`outside_view`)."""
+        covered; the renderer projects in float32). No bound (inf, None) when a corner is
+        behind the camera; 0 when the boxes lie wholly outside the view frustum
+        (:meth:`outside_view`)."""
         if self.outside_view(data, pose, owner):
             return 0, None
         geoms = self._drawn_geoms_of.get(owner, [])
         m = self.scene.model
-        eye, f = self._eye_and_forward(pose)
-        r = np.array([math.sin(pose.yaw_rad), -math.cos(pose.yaw_rad), 0.0])
-        u = np.cross(r, f)
         size = self.frames.size
         half = size / 2
         scale = half / math.tan(math.radians(FOV_DEG / 2))
         hulls = []
         for g in geoms:
-            rel = geom_box_corners(m, data, g) - eye
-            z = rel @ f
+            x, y, z = self._view_coordinates(pose, geom_box_corners(m, data, g))
             if (z <= 1e-6).any():
                 return math.inf, None
             # image coordinates (column, row) from the top-left corner, in pixels
-            hulls.append(np.column_stack([half + scale * (rel @ r) / z,
-                                          half - scale * (rel @ u) / z]))
+            hulls.append(np.column_stack([half + scale * x / z, half - scale * y / z]))
         if not hulls:
             return 0, None
         pts = np.vstack(hulls)
@@ -231,11 +239,7 @@ class EgoCamera:
             return True
         m = self.scene.model
         pts = np.vstack([geom_box_corners(m, data, g) for g in geoms])
-        eye, f = self._eye_and_forward(pose)
-        r = np.array([math.sin(pose.yaw_rad), -math.cos(pose.yaw_rad), 0.0])
-        u = np.cross(r, f)
-        rel = pts - eye
-        x, y, z = rel @ r, rel @ u, rel @ f
+        x, y, z = self._view_coordinates(pose, pts)
         t = math.tan(math.radians(FOV_DEG / 2)) * 1.05  # 5 % wider than the image
         slack = 0.02  # m
         return bool((z < -slack).all() or (x > t * z + slack).all() or (-x > t * z + slack).all()
@@ -246,9 +250,10 @@ def _in_grown_hull(points: np.ndarray, x: np.ndarray, y: np.ndarray, grow: float
     """Whether each (x, y) lies inside the convex hull of ``points`` (N, 2) grown by ``grow``
     (every edge moved outward; for a degenerate hull, its bounding box grown)."""
     hull = cv2.convexHull(points.astype(np.float32)).reshape(-1, 2).astype(float)
-    e = np.roll(hull, -1, axis=0) - hull
+    nxt = np.roll(hull, -1, axis=0)
+    e = nxt - hull
     length = np.hypot(e[:, 0], e[:, 1])
-    area2 = float(np.sum(hull[:, 0] * np.roll(hull[:, 1], -1) - np.roll(hull[:, 0], -1) * hull[:, 1]))
+    area2 = float(np.sum(hull[:, 0] * nxt[:, 1] - nxt[:, 0] * hull[:, 1]))  # twice the area
     if len(hull) < 3 or abs(area2) < 1e-9 or (length < 1e-9).any():
         lo, hi = points.min(0) - grow, points.max(0) + grow
         return (x >= lo[0]) & (x <= hi[0]) & (y >= lo[1]) & (y <= hi[1])
