@@ -14,16 +14,24 @@ from fallgen.world.scene import PlacedObject, build_scene
 VARIANT = "study_loft-l1-m1"
 
 
-def _drop_event(world, category, variant, material, height, steps=900) -> FallEvent:
-    """A fall event recorded like the rehearsal does (physics-only scene, contact recorder)."""
+def _drop_event(world, category, variant, material, height, steps=900, zone_kind="floor",
+                distractors=()) -> FallEvent:
+    """A fall event recorded like the rehearsal does (physics-only scene, contact recorder):
+    dropped from ``height`` above the floor over the centre of the variant's largest zone of
+    ``zone_kind``, with static ``distractors`` (Placements) in the room."""
     v = world.variant(VARIANT)
-    z = max((z for z in v.zones if z.kind == "floor"),
+    z = max((z for z in v.zones if z.kind == zone_kind),
             key=lambda z: z.volume.half[0] * z.volume.half[1])
     inst = world.categories.instance(category, variant, material, 1.0)
     pos = (float(z.volume.center[0]), float(z.volume.center[1]), height)
     quat = (0.96, 0.2, 0.1, 0.15)
     quat = tuple(float(q) for q in np.asarray(quat) / np.linalg.norm(quat))
-    scene = build_scene(v, world.materials, [PlacedObject("target", inst, pos, quat)],
+    statics = [PlacedObject(f"d{k}", world.categories.instance(p.object.category,
+                                                                 p.object.variant,
+                                                                 p.object.material,
+                                                                 p.object.scale),
+                            p.pos, p.quat, free=False) for k, p in enumerate(distractors)]
+    scene = build_scene(v, world.materials, [PlacedObject("target", inst, pos, quat)] + statics,
                         settings=PHYSICS)
     m, d = scene.model, scene.data()
     mujoco.mj_forward(m, d)
@@ -39,7 +47,8 @@ def _drop_event(world, category, variant, material, height, steps=900) -> FallEv
         start_quat=quat, start_linvel=(0.0, 0.0, 0.0), start_angvel=(0.0, 0.0, 0.0),
         settle_pos=tuple(map(float, d.qpos[:3])), settle_quat=tuple(map(float, d.qpos[3:7])),
         settle_com=tuple(map(float, d.qpos[:3])), settle_time_s=steps * m.opt.timestep,
-        steps=steps, distractors=(), occluders=(), contacts=tuple(rec.finish()))
+        steps=steps, distractors=tuple(distractors), occluders=(),
+        contacts=tuple(rec.finish()))
 
 
 @pytest.fixture(scope="session")

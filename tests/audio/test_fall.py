@@ -8,8 +8,11 @@ import dataclasses
 import numpy as np
 import pytest
 
-from fallgen.audio.fall import AudioSettings, FallRenderer
+from fallgen.audio.fall import AudioSettings, FallRenderer, is_panel
 from fallgen.audio.modes import ModalSettings
+from fallgen.physics.drop import PHYSICS
+from fallgen.physics.events import ObjectSpec, Placement
+from fallgen.world.scene import PlacedObject, build_scene
 
 FS = 44100
 
@@ -90,3 +93,28 @@ def test_sources_split_the_fall_by_place_and_sum_to_it(world, renderer, drop_eve
         assert np.min(np.linalg.norm(pts - s.position, axis=1)) < 1e-9
     one = renderer.render_sources(e, np.random.default_rng(2), cluster_m=100.0)
     assert len(one) == 1
+
+
+def test_default_bodies_are_the_recording_scenes(world, renderer, drop_event):
+    """Without a scene, the bodies hit are the room's geoms (a model compiled once per variant)
+    and the other objects where they were placed: the same sound, sample for sample, as with
+    the very scene that recorded the fall (a furniture part and a rotated distractor hit)."""
+    yaw = 0.7
+    coaster = Placement(ObjectSpec("coaster", "tile", "ceramic", 1.0), (5.0, 3.1, 0.755),
+                        (float(np.cos(yaw / 2)), 0.0, 0.0, float(np.sin(yaw / 2))))
+    e = drop_event(world, "key", "house", "metal/brass", 1.3, zone_kind="table_top",
+                   distractors=(coaster,))
+    others = {c.other for c in e.contacts}
+    assert "obj:d0" in others
+    assert any(not (is_panel(o) or o.startswith("obj:")) for o in others), others
+    objs = [PlacedObject("target", world.categories.instance("key", "house", "metal/brass"),
+                         e.start_pos, e.start_quat),
+            PlacedObject("d0", world.categories.instance("coaster", "tile", "ceramic"),
+                         coaster.pos, coaster.quat, free=False)]
+    scene = build_scene(world.variant(e.room_variant), world.materials, objs, settings=PHYSICS)
+    ref = renderer.render_sources(e, np.random.default_rng(3), scene)
+    got = renderer.render_sources(e, np.random.default_rng(3))
+    assert len(got) == len(ref)
+    for a, b in zip(got, ref):
+        assert np.array_equal(a.position, b.position)
+        assert np.array_equal(a.signal, b.signal)

@@ -99,6 +99,16 @@ def part_mesh(gtype: int, size: np.ndarray) -> trimesh.Trimesh:
     return trimesh.creation.box(tuple(2 * np.asarray(size[:3], float)))
 
 
+def _quat_mat(quat) -> np.ndarray:
+    """The rotation matrix of a placed body's quaternion (w, x, y, z), as MuJoCo's kinematics
+    make it for a body of the world (normalised, then converted)."""
+    q = np.asarray(quat, float).copy()
+    mujoco.mju_normalize4(q)
+    mat = np.empty(9)
+    mujoco.mju_quat2Mat(mat, q)
+    return mat.reshape(3, 3)
+
+
 def _sounding(ref: ModalModel, mat: ObjectMaterial, scale: float, mass: float, radius: float,
               loss_floor: float = 0.0) -> SoundingBody:
     return SoundingBody(ref.scaled(mat.youngs_modulus_pa, mat.density_kg_m3, scale),
@@ -113,6 +123,20 @@ class FallRenderer:
         self.world = world
         self.s = settings
         self._models: dict[tuple, ModalModel] = {}
+        self._rooms: dict[str, tuple[mujoco.MjModel, mujoco.MjData]] = {}
+
+    def _room(self, variant_id: str) -> tuple[mujoco.MjModel, mujoco.MjData]:
+        """The room alone, compiled once per variant: the static geoms every scene of the
+        variant starts with (same ids, same poses)."""
+        if variant_id not in self._rooms:
+            from fallgen.physics.drop import PHYSICS
+
+            room = build_scene(self.world.variant(variant_id), self.world.materials,
+                               settings=PHYSICS)
+            d = room.data()
+            mujoco.mj_forward(room.model, d)
+            self._rooms[variant_id] = (room.model, d)
+        return self._rooms[variant_id]
 
     # -- bodies ---------------------------------------------------------------------------
     def _ref(self, key: tuple, mesh, shell: ThinShell | None = None) -> ModalModel:
@@ -163,8 +187,9 @@ class FallRenderer:
         """Each sounding body's share of the fall: ``"target"`` and one entry per other body
         hit (``"floor"``, ``"<furniture id>#<geom>"``, ``"obj:d0"``...).
 
-        ``scene``: the compiled scene whose geom ids the event's contacts name (a replay's);
-        by default the rehearsal's scene is compiled again (~5 ms)."""
+        ``scene``: the compiled scene whose geom ids the event's contacts name (a replay's,
+        where the agent stands in the room); by default the rehearsal's (the room's geoms, of
+        a model compiled once per variant, and the objects' placed poses)."""
         target, others, _ = self._bodies(event, rng, scene)
         out = {"target": target.render(self.s)}
         for name, b in others:
@@ -189,18 +214,20 @@ class FallRenderer:
                 cluster_m: float = 0.0) -> tuple[_Body, list[tuple[str, _Body]], list]:
         """The target and every other body hit, with their hits (and each hit's source group:
         contacts within ``cluster_m`` of a group's first point)."""
-        from fallgen.physics.drop import PHYSICS, _instance, _scene_objects
+        from fallgen.physics.drop import _instance, _scene_objects
 
         world = self.world
-        variant = world.variant(event.room_variant)
         objs = _scene_objects(world, _instance(world, event.target), event.start_pos,
                               event.start_quat, event.distractors, event.occluders)
+        placed = {o.name: o for o in objs}  # "target", "d0".., "o0"..
         if scene is None:
-            scene = build_scene(variant, world.materials, objs, settings=PHYSICS)
-        m, d = scene.model, scene.data()
-        mujoco.mj_forward(m, d)
-        placed = {o.name: o.instance for o in objs}  # "target", "d0".., "o0"..
-        target = self._object_body(placed["target"], (0, 0, 0), np.eye(3))
+            # the rehearsal's scene: the room's geoms come first, so their ids are the room
+            # model's; the other objects stand where they were placed
+            m, d = self._room(event.room_variant)
+        else:
+            m, d = scene.model, scene.data()
+            mujoco.mj_forward(m, d)
+        target = self._object_body(placed["target"].instance, (0, 0, 0), np.eye(3))
         others: dict[int, _Body] = {}
         names: dict[int, str] = {}
         centres: list[np.ndarray] = []
@@ -208,10 +235,18 @@ class FallRenderer:
             other = others.get(c.geom_other)
             if other is None:
                 if c.other.startswith("obj:"):
-                    b = m.geom_bodyid[c.geom_other]
-                    other = self._object_body(placed[c.other[4:]], d.xpos[b],
-                                              d.xmat[b].reshape(3, 3))
+                    o = placed[c.other[4:]]
+                    if scene is None:
+                        pos, rot = np.asarray(o.pos, float), _quat_mat(o.quat)
+                    else:
+                        b = scene.object_body[o.name]
+                        pos, rot = d.xpos[b], d.xmat[b].reshape(3, 3)
+                    other = self._object_body(o.instance, pos, rot)
                 else:
+                    if c.geom_other >= m.ngeom:
+                        raise ValueError(f"event {event.event_id}: contact with geom "
+                                         f"{c.geom_other} ({c.other}) outside the room's "
+                                         f"{m.ngeom} geoms: pass the scene that recorded it")
                     other = self._static_body(m, d, c.geom_other, c.material_other, c.other)
                 others[c.geom_other] = other
                 names[c.geom_other] = c.other if is_panel(c.other) or \

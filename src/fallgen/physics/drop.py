@@ -26,7 +26,7 @@ from fallgen.physics.settle import (SettleCriteria, SettleResult, mujoco_warning
 from fallgen.world.library import World
 from fallgen.world.objects import ObjectInstance
 from fallgen.world.rooms import RoomVariant, Zone
-from fallgen.world.scene import AgentBody, PhysicsSettings, PlacedObject, build_scene
+from fallgen.world.scene import AgentBody, PhysicsSettings, PlacedObject, Scene, build_scene
 
 #: Physics-only scenes: no render meshes (they do not collide; compiling them is wasted time).
 PHYSICS = PhysicsSettings(visual_meshes=False)
@@ -177,7 +177,7 @@ def _simulate(world: World, variant: RoomVariant, objs: list[PlacedObject], linv
               criteria: SettleCriteria, max_steps: int | None = None,
               keep=lambda res, com: True, agent: AgentBody | None = None,
               floor_z: float | None = None
-              ) -> tuple[SettleResult, list[ContactEvent], np.ndarray, float, bool]:
+              ) -> tuple[SettleResult, list[ContactEvent], np.ndarray, float, bool, Scene]:
     """Simulate the target's fall in two passes over one compiled model: a fast pass in C
     chunks decides when (and whether) it settles; if it is worth keeping (``keep(result,
     centre of mass)``), a second pass from the same initial state records contacts step by step
@@ -206,7 +206,7 @@ def _simulate(world: World, variant: RoomVariant, objs: list[PlacedObject], linv
             m, d, b, criteria, chunk=CHECK_EVERY_STEPS,
             give_up=None if floor_z is None else _below_for_good(m, b, floor_z))
         if overlap or not first.settled or not keep(first, d.xipos[b]):
-            return first, [], d.xipos[b].copy(), float(m.body_mass[b]), overlap
+            return first, [], d.xipos[b].copy(), float(m.body_mass[b]), overlap, scene
         max_steps = first.steps
         d = fresh()
     rec = ContactRecorder(m, b, scene.geom_owner, scene.geom_material)
@@ -219,7 +219,7 @@ def _simulate(world: World, variant: RoomVariant, objs: list[PlacedObject], linv
                                "deterministic here")
         # the first pass's verdict, with the swept area seen at every step of the second
         res = dataclasses.replace(first, xy_min=xy_min, xy_max=xy_max)
-    return res, rec.finish(), d.xipos[b].copy(), float(m.body_mass[b]), overlap
+    return res, rec.finish(), d.xipos[b].copy(), float(m.body_mass[b]), overlap, scene
 
 
 def _below_for_good(m: mujoco.MjModel, body: int, floor_z: float):
@@ -280,7 +280,7 @@ def run_trial(world: World, variant: RoomVariant, zone: Zone, trial: int,
     angvel = tuple(float(a) for a in rng.normal(0, cfg.spin_radps, 3))
     start = (float(x), float(y), z)
     objs = _scene_objects(world, target, start, quat, distractors, occluders)
-    res, contacts, com, mass, overlap = _simulate(
+    res, contacts, com, mass, overlap, _ = _simulate(
         world, variant, objs, linvel, angvel, cfg.settle,
         keep=lambda r, c: _judge(variant, zone, r, c) == "kept", floor_z=zone.volume.zmin)
     if overlap:
@@ -325,6 +325,7 @@ class Replay:
     settle_com: np.ndarray
     contacts: tuple[ContactEvent, ...]
     settled: bool
+    scene: Scene  # the replay's scene (its geom ids are those the contacts name)
 
 
 def replay(world: World, event: FallEvent, criteria: SettleCriteria = SettleCriteria(),
@@ -336,7 +337,7 @@ def replay(world: World, event: FallEvent, criteria: SettleCriteria = SettleCrit
     target = _instance(world, event.target)
     objs = _scene_objects(world, target, event.start_pos, event.start_quat, event.distractors,
                           event.occluders)
-    res, contacts, com, _, _ = _simulate(world, variant, objs, event.start_linvel,
+    res, contacts, com, _, _, scene = _simulate(world, variant, objs, event.start_linvel,
                                          event.start_angvel, criteria, max_steps=event.steps,
                                          agent=agent)
-    return Replay(res.pos, res.quat, com, tuple(contacts), res.settled)
+    return Replay(res.pos, res.quat, com, tuple(contacts), res.settled, scene)

@@ -182,7 +182,7 @@ class EpisodeMaker:
                 raise ExpertFailure(f"episode {episode_id}: expert fails ({out})")
             lap("planning")
             if clear_of_fall(event, target, spawn, spec):
-                replayed = event  # the agent cannot touch the fall: the rehearsal's contacts
+                replayed, sound_scene = event, None  # the agent cannot touch the fall
             else:
                 rep = replay(world, event, agent=AgentBody(spawn.x, spawn.y, spawn.yaw_rad,
                                                            spec.radius_m, spec.height_m))
@@ -190,9 +190,9 @@ class EpisodeMaker:
                 turned = quat_angle_deg(rep.settle_quat, event.settle_quat)
                 if moved > SETTLE_TOLERANCE_M or turned > SETTLE_TOLERANCE_DEG:
                     raise Skip("replay_diverged", f"{moved * 1e3:.1f} mm, {turned:.1f} deg")
-                replayed = _with_contacts(event, rep.contacts)
+                replayed, sound_scene = _with_contacts(event, rep.contacts), rep.scene
             lap("replay")
-            sources = self.sounds.render_sources(replayed, rng)
+            sources = self.sounds.render_sources(replayed, rng, sound_scene)
             room = RoomAcoustics.from_shoebox(variant.shoebox())
             head = Listener(np.array([spawn.x, spawn.y, spec.camera_height_m]), spawn.yaw_rad)
             clip = self.binaural.mix(room, sources, head, rng, self.rir)
