@@ -55,7 +55,10 @@ class SceneFrames:
             self._con.free()
             self._con = None
 
-    def _draw(self, data: mujoco.MjData, camera: mujoco.MjvCamera, ids: bool) -> None:
+    def _draw(self, data: mujoco.MjData, camera: mujoco.MjvCamera, ids: bool,
+              crop: tuple[int, int, int, int] | None = None) -> mujoco.MjrRect:
+        """Draw the view; with ``crop`` = (row0, row1, col0, col1) only that part of the
+        image, into the corner of the buffer (the frustum narrowed to it). The rect drawn."""
         mujoco.mjv_updateScene(self.model, data, self._option, None, camera,
                                mujoco.mjtCatBit.mjCAT_ALL.value, self._scene)
         flags = self._scene.flags
@@ -63,8 +66,20 @@ class SceneFrames:
         # depth is more accurate far away)
         flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = ids
         flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = ids
+        rect = self._rect
+        if crop is not None:
+            r0, r1, c0, c1 = crop
+            n = self.size
+            for cam in self._scene.camera:  # (mjr_render takes the half width from the rect)
+                half = 0.5 * (cam.frustum_top - cam.frustum_bottom)  # square: = half width
+                left, bottom = cam.frustum_center - half, cam.frustum_bottom
+                cam.frustum_center = left + half * (c0 + c1) / n
+                cam.frustum_bottom = bottom + 2 * half * (n - r1) / n  # GL rows from the bottom
+                cam.frustum_top = bottom + 2 * half * (n - r0) / n
+            rect = mujoco.MjrRect(0, 0, c1 - c0, r1 - r0)
         self.context.make_current()
-        mujoco.mjr_render(self._rect, self._scene, self._con)
+        mujoco.mjr_render(rect, self._scene, self._con)
+        return rect
 
     def rgb(self, data: mujoco.MjData, camera: mujoco.MjvCamera) -> np.ndarray:
         self._draw(data, camera, False)
@@ -89,16 +104,23 @@ class SceneFrames:
         return np.ascontiguousarray(np.flipud(metres))
 
     def geoms(self, data: mujoco.MjData, camera: mujoco.MjvCamera,
-              window: tuple[int, int, int, int] | None = None) -> np.ndarray:
+              window: tuple[int, int, int, int] | None = None, crop: bool = False
+              ) -> np.ndarray:
         """(H, W) int64: the geom id seen at each pixel, -1 for none (or a non-geom). With
         ``window`` = (row0, row1, col0, col1) (image rows from the top), only that part of
         the image is read back (the same pixels; reading is most of a small render's cost on
-        a CPU renderer)."""
-        self._draw(data, camera, True)
-        rect = self._rect
-        if window is not None:
-            r0, r1, c0, c1 = window
-            rect = mujoco.MjrRect(c0, self.size - r1, c1 - c0, r1 - r0)  # GL rows from the bottom
+        a CPU renderer). With ``crop`` as well, only that part is drawn, through the frustum
+        narrowed to it (~3x faster for a small window on a CPU renderer): the same pixels up
+        to rounding where an edge passes through a pixel centre (the projection matrix is
+        another, in float32): about one pixel in 10^4 differs."""
+        if window is not None and crop:
+            rect = self._draw(data, camera, True, window)
+        else:
+            self._draw(data, camera, True)
+            rect = self._rect
+            if window is not None:
+                r0, r1, c0, c1 = window
+                rect = mujoco.MjrRect(c0, self.size - r1, c1 - c0, r1 - r0)  # GL rows: bottom up
         rgb = np.empty((rect.height, rect.width, 3), np.uint8)
         mujoco.mjr_readPixels(rgb, None, rect, self._con)
         c = rgb.astype(np.uint32)
