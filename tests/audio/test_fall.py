@@ -8,7 +8,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from fallgen.audio.fall import AudioSettings, FallRenderer, is_panel
+from fallgen.audio.fall import AudioSettings, FallRenderer, _nbytes, is_panel
 from fallgen.audio.modes import ModalSettings
 from fallgen.physics.drop import PHYSICS
 from fallgen.physics.events import ObjectSpec, Placement
@@ -118,3 +118,19 @@ def test_default_bodies_are_the_recording_scenes(world, renderer, drop_event):
     for a, b in zip(got, ref):
         assert np.array_equal(a.position, b.position)
         assert np.array_equal(a.signal, b.signal)
+
+
+def test_model_budget_keeps_recent_models_and_the_same_sound(world, renderer, drop_event):
+    """A renderer over its model budget drops the least recently used models and loads them
+    again when needed (from the modal cache): the sound is the same."""
+    e = drop_event(world, "key", "house", "metal/brass", 1.0)
+    small = FallRenderer(world, renderer.s, model_budget_bytes=1)  # room for one model
+    ref = renderer.render(e, np.random.default_rng(4))
+    for _ in range(2):
+        assert np.array_equal(small.render(e, np.random.default_rng(4)), ref)
+        assert len(small._models) == 1
+    assert small._model_bytes == sum(_nbytes(m) for m in small._models.values())
+    big = FallRenderer(world, renderer.s)
+    big.render(e, np.random.default_rng(4))
+    assert len(big._models) >= 2
+    assert big._model_bytes == sum(_nbytes(m) for m in big._models.values())

@@ -22,6 +22,7 @@ acceleration noise. Output: float64 pressure at 1 m in pascals, no normalisation
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -99,6 +100,10 @@ def part_mesh(gtype: int, size: np.ndarray) -> trimesh.Trimesh:
     return trimesh.creation.box(tuple(2 * np.asarray(size[:3], float)))
 
 
+def _nbytes(m: ModalModel) -> int:
+    return m.shapes.nbytes + m.points.nbytes + m.area.nbytes + m.omega.nbytes
+
+
 def _quat_mat(quat) -> np.ndarray:
     """The rotation matrix of a placed body's quaternion (w, x, y, z), as MuJoCo's kinematics
     make it for a body of the world (normalised, then converted)."""
@@ -117,12 +122,17 @@ def _sounding(ref: ModalModel, mat: ObjectMaterial, scale: float, mass: float, r
 
 
 class FallRenderer:
-    """Renders fall events of one world; keeps the modal models it has loaded."""
+    """Renders fall events of one world; keeps the modal models it has used most recently,
+    up to ``model_budget_bytes`` (a worker of a full build meets ~300 models, ~500 MB; one
+    dropped is loaded again from the modal cache, the same model)."""
 
-    def __init__(self, world: World, settings: AudioSettings = AudioSettings()) -> None:
+    def __init__(self, world: World, settings: AudioSettings = AudioSettings(),
+                 model_budget_bytes: int = 256 * 2 ** 20) -> None:
         self.world = world
         self.s = settings
-        self._models: dict[tuple, ModalModel] = {}
+        self.budget = model_budget_bytes
+        self._models: OrderedDict[tuple, ModalModel] = OrderedDict()
+        self._model_bytes = 0
         self._rooms: dict[str, tuple[mujoco.MjModel, mujoco.MjData]] = {}
 
     def _room(self, variant_id: str) -> tuple[mujoco.MjModel, mujoco.MjData]:
@@ -142,10 +152,17 @@ class FallRenderer:
     def _ref(self, key: tuple, mesh, shell: ThinShell | None = None) -> ModalModel:
         """The reference modal model of a mesh (``mesh()`` builds it when not yet loaded), or
         of its thin ``shell``."""
-        if key not in self._models:
-            v, f, nu = mesh()
-            self._models[key] = modal_model(v, f, nu, self.s.modal, self.s.cache_dir, shell)
-        return self._models[key]
+        model = self._models.get(key)
+        if model is not None:
+            self._models.move_to_end(key)
+            return model
+        v, f, nu = mesh()
+        model = self._models[key] = modal_model(v, f, nu, self.s.modal, self.s.cache_dir, shell)
+        self._model_bytes += _nbytes(model)
+        while self._model_bytes > self.budget and len(self._models) > 1:
+            _, old = self._models.popitem(last=False)
+            self._model_bytes -= _nbytes(old)
+        return model
 
     def _object_body(self, inst: ObjectInstance, pos, mat33) -> _Body:
         nu = inst.material.poisson_ratio

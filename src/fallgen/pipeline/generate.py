@@ -12,6 +12,8 @@ used and the attempts, and the skip reasons are counted.
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import dataclasses
 import glob
 import itertools
@@ -38,6 +40,8 @@ from fallgen.pipeline.plan import PlannedEpisode, plan, pools_of
 from fallgen.world.library import World, load_world
 
 MAX_EVENT_ATTEMPTS = 10
+#: Episodes between returns of freed heap memory to the system (see :func:`_trim_heap`).
+TRIM_EVERY = 10
 
 
 @dataclass
@@ -154,7 +158,9 @@ def make_shard(world: World, maker: EpisodeMaker, cfg: BuildConfig, job: ShardJo
     rows, dropped = [], []
     writer = ShardWriter(out, job.split, job.index, job.count, maker.labels)
     try:
-        for p in job.episodes:
+        for k, p in enumerate(job.episodes):
+            if k % TRIM_EVERY == TRIM_EVERY - 1:
+                _trim_heap()
             pool = pools[(p.split, p.room_kind)]
             first = pool.index(p.event_id)
             skipped: list[tuple[str, str]] = []
@@ -179,6 +185,26 @@ def make_shard(world: World, maker: EpisodeMaker, cfg: BuildConfig, job: ShardJo
         raise
     res.episodes = len(rows)
     return res
+
+
+def _malloc_trim():
+    """glibc's ``malloc_trim``, or None on another C library."""
+    try:
+        return ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6").malloc_trim
+    except (OSError, AttributeError):
+        return None
+
+
+_MALLOC_TRIM = _malloc_trim()
+
+
+def _trim_heap() -> None:
+    """Give freed heap pages back to the system. An episode frees many arrays of a few
+    hundred kB to a few MB (audio, modal models dropped from the renderer's budget) and glibc
+    keeps the holes: without this a worker's resident memory grows by ~100 MB a shard (~3 ms
+    a call)."""
+    if _MALLOC_TRIM is not None:
+        _MALLOC_TRIM(0)
 
 
 _STATE: dict = {}
