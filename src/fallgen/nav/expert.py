@@ -108,8 +108,43 @@ def _search(start: Pose, grid: OccupancyGrid, target, spec: AgentSpec, move_cost
     found: list[tuple[int, int, int]] = []  # heap of (total cost, state, tilt steps)
     tilt_cost = min(move_cost, turn_cost)
     result = None
-    while buckets or found:
+    # Forward moves of settled states wait here (their costs, states, poses) until a turn
+    # could cost as much as they do: with a move costing more than a turn, the turn buckets of
+    # one move count are settled one after another and their forward moves are made in one
+    # batch (the same states, costs and parents as moving forward at every bucket: a forward
+    # move is still made before any turn that could tie with it).
+    pending: list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
+
+    def due(c: int | None) -> bool:  # must the pending moves be made before bucket c?
+        return bool(pending) and (c is None or c + turn_cost >= pending[0][0] + move_cost)
+
+    def move_forward() -> None:
+        cost = np.concatenate([np.full(len(p[1]), p[0], np.int64) for p in pending])
+        states, k, x0, y0 = (np.concatenate([p[i] for p in pending]) for i in range(1, 5))
+        pending.clear()
+        x1, y1 = x0 + STEP_M * dirs[k, 0], y0 + STEP_M * dirs[k, 1]
+        # the simulator's own check of a forward move (the points of nav.agent.step_points)
+        ok = free(x0[:, None] + STEP_FRACTIONS * (x1 - x0)[:, None],
+                  y0[:, None] + STEP_FRACTIONS * (y1 - y0)[:, None]).all(1)
+        # a forward move's bin is new: the first pose to reach it (in cost, then state order:
+        # the order of `pending`) wins
+        src, x, y, cost = states[ok], x1[ok], y1[ok], cost[ok] + move_cost
+        s = key(x, y, k[ok])
+        inside = (s >= 0) & (s < size)
+        src, x, y, s, cost = src[inside], x[inside], y[inside], s[inside], cost[inside]
+        s, first = np.unique(s, return_index=True)
+        src, x, y, cost = src[first], x[first], y[first], cost[first]
+        better = best[s] > cost
+        s, src, x, y, cost = s[better], src[better], x[better], y[better], cost[better]
+        best[s], px[s], py[s], parent[s], act[s] = cost, x, y, src, FORWARD
+        for c1 in np.unique(cost).tolist():
+            buckets.setdefault(c1, []).append(s[cost == c1])
+
+    while buckets or found or pending:
         c = min(buckets) if buckets else None
+        if due(c):
+            move_forward()
+            continue
         # candidates whose total is below every unexpanded cost are final: confirm the
         # cheapest by rendering (a refused one is dropped and the search goes on)
         while found and (c is None or found[0][0] < c) and result is None:
@@ -147,29 +182,21 @@ def _search(start: Pose, grid: OccupancyGrid, target, spec: AgentSpec, move_cost
             for s, t in zip(states[cand][steps != NO_TILT].tolist(),
                             steps[steps != NO_TILT].tolist()):
                 heapq.heappush(found, (c + abs(t) * tilt_cost + 1, s, t))
-        # expand: forward (collision-checked along the segment) and the two turns
+        # expand: forward (later, see `pending`) and the two turns (a turn stays in its own
+        # bin, state = bin * HEADINGS + heading, one state per source)
         x0, y0 = px[states], py[states]
-        x1, y1 = x0 + STEP_M * dirs[k, 0], y0 + STEP_M * dirs[k, 1]
-        # the simulator's own check of a forward move (the points of nav.agent.step_points)
-        ok = free(x0[:, None] + STEP_FRACTIONS * (x1 - x0)[:, None],
-                  y0[:, None] + STEP_FRACTIONS * (y1 - y0)[:, None]).all(1)
-        # a forward move's bin is new: the first pose (in state order) to reach it wins; a turn
-        # stays in its own bin (state = bin * HEADINGS + heading), one state per source
-        src, x, y = states[ok], x1[ok], y1[ok]
-        s = key(x, y, k[ok])
-        inside = (s >= 0) & (s < size)
-        src, x, y, s = src[inside], x[inside], y[inside], s[inside]
-        s, first = np.unique(s, return_index=True)
-        succ = [(s, src[first], x[first], y[first], FORWARD, move_cost),
-                (states - k + (k + 1) % HEADINGS, states, x0, y0, LEFT, turn_cost),
-                (states - k + (k - 1) % HEADINGS, states, x0, y0, RIGHT, turn_cost)]
-        for s, src, x, y, a, cost in succ:
-            better = best[s] > c + cost
-            s, src, x, y = s[better], src[better], x[better], y[better]
+        pending.append((c, states, k, x0, y0))
+        if due(c):
+            move_forward()
+        for s, a in ((states - k + (k + 1) % HEADINGS, LEFT),
+                     (states - k + (k - 1) % HEADINGS, RIGHT)):
+            better = best[s] > c + turn_cost
+            s, src = s[better], states[better]
             if len(s) == 0:
                 continue
-            best[s], px[s], py[s], parent[s], act[s] = c + cost, x, y, src, a
-            buckets.setdefault(c + cost, []).append(s)
+            best[s], px[s], py[s], parent[s], act[s] = c + turn_cost, x0[better], \
+                y0[better], src, a
+            buckets.setdefault(c + turn_cost, []).append(s)
     if result is None:
         raise NoPath(f"no reachable pose sees the object ({renders} candidate poses rendered)")
     total, s, t, goal = result
