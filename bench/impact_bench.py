@@ -45,12 +45,11 @@ CASES = [  # (category, variant, material, surface material, speed m/s) ~ PyImpa
 
 def _whole_falls(world, n: int, variant_id: str = "kitchen_galley-l1-m1") -> dict:
     """Render the whole dry sound (every contact, both bodies, 2 s) of ``n`` rehearsed falls
-    (the first kept trials of each zone); modal models loaded and scenes compiled before timing
-    (the compile is reported on its own)."""
+    (the first kept trials of each zone); modal models loaded and the room compiled before
+    timing."""
     from fallgen.audio.fall import AudioSettings, FallRenderer
     from fallgen.config import RehearseConfig
-    from fallgen.physics.drop import PHYSICS, _instance, _scene_objects, run_trial
-    from fallgen.world.scene import build_scene
+    from fallgen.physics.drop import run_trial
 
     variant = world.variant(variant_id)
     events = []
@@ -61,24 +60,18 @@ def _whole_falls(world, n: int, variant_id: str = "kitchen_galley-l1-m1") -> dic
                 if o.event is not None:
                     events.append(o.event)
     r = FallRenderer(world, AudioSettings())
-    for e in events:  # load (or solve) every modal model first
+    for e in events:  # load (or solve) every modal model first, and compile the room
         r.render(e, np.random.default_rng(0))
-    # the scenes the contacts were recorded in (generation has them from its replay)
+    # as generation renders a fall whose agent stands clear of it: no scene is compiled (the
+    # room's geoms come from a model compiled once per variant)
     t = time.perf_counter()
-    scenes = [build_scene(variant, world.materials,
-                          _scene_objects(world, _instance(world, e.target), e.start_pos,
-                                         e.start_quat, e.distractors, e.occluders),
-                          settings=PHYSICS) for e in events]
-    t_scene = time.perf_counter() - t
-    t = time.perf_counter()
-    for e, sc in zip(events, scenes):
-        p = r.render(e, np.random.default_rng(0), sc)
+    for e in events:
+        p = r.render(e, np.random.default_rng(0))
         assert np.isfinite(p).all()
     dt = time.perf_counter() - t
     impacts = sum(c.kind == "impact" for e in events for c in e.contacts)
     contacts = sum(len(e.contacts) for e in events)
     return {"falls": len(events), "ms_per_fall": round(1e3 * dt / len(events), 2),
-            "scene_compile_ms_per_fall": round(1e3 * t_scene / len(events), 2),
             "impacts_per_fall": round(impacts / len(events), 1),
             "contacts_per_fall": round(contacts / len(events), 1),
             "ms_per_impact": round(1e3 * dt / impacts, 3),
