@@ -17,6 +17,7 @@ m/s, impulses in N s, forces in N; points are in world coordinates and in the bo
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import mujoco
@@ -24,10 +25,40 @@ import numpy as np
 
 KINDS = ("impact", "scrape", "roll")
 
+Vec = tuple[float, float, float]
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    (a0, a1, a2), (b0, b1, b2) = a.tolist(), b.tolist()  # Python floats: the same IEEE sums
-    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
+
+def _sub(a, b) -> Vec:
+    return a[0] - b[0], a[1] - b[1], a[2] - b[2]
+
+
+def _dot(a, b) -> float:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _point_velocity(v, w, x, p) -> Vec:
+    """Velocity of the point ``p`` of a body whose origin ``x`` moves at ``v`` and which turns
+    at ``w`` (world frame): v + w x (p - x)."""
+    r0, r1, r2 = p[0] - x[0], p[1] - x[1], p[2] - x[2]
+    return (v[0] + (w[1] * r2 - w[2] * r1), v[1] + (w[2] * r0 - w[0] * r2),
+            v[2] + (w[0] * r1 - w[1] * r0))
+
+
+def _body_frame(mat, x, p) -> Vec:
+    """The world point ``p`` in the frame of a body at ``x`` with rotation ``mat`` (row-major
+    3x3 as a flat sequence): mat^T (p - x)."""
+    r0, r1, r2 = p[0] - x[0], p[1] - x[1], p[2] - x[2]
+    return (mat[0] * r0 + mat[3] * r1 + mat[6] * r2, mat[1] * r0 + mat[4] * r1 + mat[7] * r2,
+            mat[2] * r0 + mat[5] * r1 + mat[8] * r2)
+
+
+def _kinematics(qvel, mat) -> tuple[Vec, Vec]:
+    """(linear, angular) world velocity of a free body from its 6 joint velocities (the
+    angular part in the body frame) and its rotation (row-major 3x3, flat)."""
+    w0, w1, w2 = qvel[3], qvel[4], qvel[5]
+    return (qvel[0], qvel[1], qvel[2]), (mat[0] * w0 + mat[1] * w1 + mat[2] * w2,
+                                         mat[3] * w0 + mat[4] * w1 + mat[5] * w2,
+                                         mat[6] * w0 + mat[7] * w1 + mat[8] * w2)
 
 
 @dataclass(frozen=True)
@@ -75,9 +106,9 @@ class ContactEvent:
 class _Episode:
     start_step: int
     geom_object: int
-    point_world: np.ndarray
-    point_object: np.ndarray
-    normal: np.ndarray
+    point_world: Vec
+    point_object: Vec
+    normal: Vec
     approach_mps: float
     impulse: float = 0.0
     compressing: bool = True
@@ -90,15 +121,20 @@ class _Episode:
     s_force: float = 0.0
     s_slip: float = 0.0
     s_normal_speed: float = 0.0
-    s_start_point: np.ndarray | None = None
+    s_start_point: Vec | None = None
     s_start_step: int = 0
-    s_point: np.ndarray | None = None
-    s_point_object: np.ndarray | None = None
+    s_point: Vec | None = None
+    s_point_object: Vec | None = None
     events: list[ContactEvent] = field(default_factory=list)
 
 
 class ContactRecorder:
-    """Call :meth:`before_step` and :meth:`after_step` around every ``mj_step``."""
+    """Call :meth:`before_step` and :meth:`after_step` around every ``mj_step`` (of one
+    ``MjData``).
+
+    This runs at every step of every recorded fall, so it works on Python floats: a step
+    without contact costs two attribute reads, one with contact a few microseconds per
+    contact point (NumPy calls on 3-vectors cost a microsecond each)."""
 
     def __init__(self, model: mujoco.MjModel, body_id: int, geom_owner: tuple[str, ...],
                  geom_material: tuple[str, ...], params: ContactParams = ContactParams()) -> None:
@@ -113,23 +149,31 @@ class ContactRecorder:
         self.open: dict[int, _Episode] = {}
         self.events: list[ContactEvent] = []
         self._force = np.zeros(6)
-        self.vadr = model.jnt_dofadr[model.body_jntadr[body_id]]
-        self._prev = (np.zeros(3), np.zeros(3), np.zeros(3))
+        self.vadr = int(model.jnt_dofadr[model.body_jntadr[body_id]])
+        self._bodyid: list[int] = model.geom_bodyid.tolist()
+        self._friction: list[float] = model.geom_friction[:, 0].tolist()
+        self._data: mujoco.MjData | None = None  # the MjData the views below look into
+        # the body's joint velocities, rotation and position before the step (raw)
+        self._prev: tuple[list, list, list] = ([0.0] * 6, [1.0, 0, 0, 0, 1.0, 0, 0, 0, 1.0],
+                                               [0.0] * 3)
         # other geom -> last step in contact of its last closed episode
         self._last: dict[int, int] = {}
 
     # -- kinematics ---------------------------------------------------------------------------
     # The body has a free joint: qvel[0:3] is the world velocity of the body origin and
     # qvel[3:6] the angular velocity in the body frame; the velocity of a point p is
-    # v + (R w) x (p - x). Plain arithmetic here: this runs at every step.
+    # v + (R w) x (p - x).
 
-    def _state(self, d: mujoco.MjData) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        q = d.qvel[self.vadr:self.vadr + 6]
-        w = d.xmat[self.body].reshape(3, 3) @ q[3:]
-        return q[:3].copy(), w, d.xpos[self.body].copy()
+    def _raw(self, d: mujoco.MjData) -> tuple[list, list, list]:
+        if d is not self._data:
+            self._data = d
+            self._views = (d.qvel[self.vadr:self.vadr + 6], d.xmat[self.body],
+                           d.xpos[self.body])
+        q, mat, x = self._views
+        return q.tolist(), mat.tolist(), x.tolist()
 
     def before_step(self, d: mujoco.MjData) -> None:
-        self._prev = self._state(d)
+        self._prev = self._raw(d)
 
     def after_step(self, d: mujoco.MjData) -> None:
         self.step += 1
@@ -137,52 +181,57 @@ class ContactRecorder:
             if self.open:
                 self._close_stale()
             return
-        geoms = d.contact.geom[:d.ncon]
-        mine_mask = self.m.geom_bodyid[geoms] == self.body
-        hits = np.nonzero(mine_mask[:, 0] != mine_mask[:, 1])[0]
-        if hits.size == 0:
+        con = d.contact
+        body, bodyid = self.body, self._bodyid
+        hits = []
+        for i, (g1, g2) in enumerate(con.geom.tolist()):
+            first_mine = bodyid[g1] == body
+            if first_mine != (bodyid[g2] == body):
+                hits.append((i, g1, g2, first_mine))
+        if not hits:
             if self.open:
                 self._close_stale()
             return
-        v, w, x = self._state(d)
-        xmat = d.xmat[self.body].reshape(3, 3)
-        seen: dict[int, tuple] = {}
-        # the contact arrays, read once per step (d.contact[i] builds a struct view per call)
-        frames, points = d.contact.frame, d.contact.pos
-        for i, (g1, g2), first_mine in zip(hits.tolist(), geoms[hits].tolist(),
-                                           mine_mask[hits, 0].tolist()):
+        q, mat, x = self._raw(d)
+        v, w = _kinematics(q, mat)
+        seen: dict[int, list] = {}
+        frames, points, force = con.frame, con.pos, self._force
+        for i, g1, g2, first_mine in hits:
             if first_mine:
                 mine, other, sign = g1, g2, -1.0
             else:
                 mine, other, sign = g2, g1, 1.0
-            mujoco.mj_contactForce(self.m, d, i, self._force)
-            fn = float(self._force[0])
-            if other in seen:  # several contact points with one geom: sum forces
-                s = seen[other]
-                seen[other] = (s[0], s[1], s[2], s[3] + fn)
+            mujoco.mj_contactForce(self.m, d, i, force)
+            fn = float(force[0])
+            s = seen.get(other)
+            if s is not None:  # several contact points with one geom: sum forces
+                s[3] += fn
             else:
-                n = sign * frames[i, :3]  # frame normal points geom1 -> geom2
-                seen[other] = (mine, points[i].copy(), n, fn)
+                f0, f1, f2 = frames[i, :3].tolist()  # the frame's normal points geom1 -> geom2
+                seen[other] = [mine, tuple(points[i].tolist()), (sign * f0, sign * f1, sign * f2),
+                               fn]
+        p = self.p
         for other, (mine, pos, n, fn) in seen.items():
-            vp = v + _cross(w, pos - x)  # object's contact point velocity (others static)
-            vn = float(vp @ n)  # > 0 separating
-            slip = float(np.linalg.norm(vp - vn * n))
+            vp = _point_velocity(v, w, x, pos)  # the object's contact point (others static)
+            vn = _dot(vp, n)  # > 0 separating
+            t0, t1, t2 = vp[0] - vn * n[0], vp[1] - vn * n[1], vp[2] - vn * n[2]
+            slip = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
             ep = self.open.get(other)
             if ep is None:
-                pv, pw, px = self._prev
-                vp0 = pv + _cross(pw, pos - px)
+                pq, pmat, px = self._prev
+                vn0 = _dot(_point_velocity(*_kinematics(pq, pmat), px, pos), n)
                 ep = _Episode(
                     start_step=self.step, geom_object=mine, point_world=pos,
-                    point_object=xmat.T @ (pos - x), normal=n,
-                    approach_mps=max(0.0, -float(vp0 @ n)),
-                    s_start_point=pos, s_start_step=self.step, vn_last=float(vp0 @ n),
+                    point_object=_body_frame(mat, x, pos), normal=n,
+                    approach_mps=max(0.0, -vn0), s_start_point=pos, s_start_step=self.step,
+                    vn_last=vn0,
                 )
                 ep.hop = self._is_hop(other, ep, slip)
                 self.open[other] = ep
             ep.last_seen = self.step
             if ep.compressing:
                 ep.compression_steps += 1
-                if vn >= -self.p.rest_speed_mps:
+                if vn >= -p.rest_speed_mps:
                     # Approach ended during this step: count the part of its impulse that
                     # brought the normal velocity to zero (linear in the step), not the rebound.
                     frac = min(1.0, max(0.0, -ep.vn_last / (vn - ep.vn_last))) \
@@ -191,30 +240,32 @@ class ContactRecorder:
                     ep.compressing = False
                 else:
                     ep.impulse += fn * self.dt
-                    ep.compressing = ep.compression_steps * self.dt < self.p.max_compression_s
+                    ep.compressing = ep.compression_steps * self.dt < p.max_compression_s
                 ep.vn_last = vn
-            elif (ep.approach_mps >= self.p.impact_speed_mps
-                  and (self.step - ep.start_step + 1) * self.dt <= self.p.impact_contact_s):
+            elif (ep.approach_mps >= p.impact_speed_mps
+                  and (self.step - ep.start_step + 1) * self.dt <= p.impact_contact_s):
                 ep.s_start_point = None  # sampling starts after the impact's own contact
             else:
-                self._sample(ep, other, pos, xmat.T @ (pos - x), n, fn, vn, slip)
-        self._close_stale()
+                self._sample(ep, other, pos, _body_frame(mat, x, pos), n, fn, vn, slip)
+        if self.open:
+            self._close_stale()
 
     def _is_hop(self, other: int, ep: _Episode, slip: float) -> bool:
         last = self._last.get(other)
         if last is None or slip < self.p.slip_speed_mps:
             return False
         gap_s = (ep.start_step - last) * self.dt
-        mu = float(max(self.m.geom_friction[ep.geom_object, 0], self.m.geom_friction[other, 0]))
+        mu = max(self._friction[ep.geom_object], self._friction[other])
         return gap_s <= self.p.hop_gap_s and ep.approach_mps <= self.p.hop_mu_factor * mu * slip
 
     def _close_stale(self) -> None:
-        for other in [g for g, ep in self.open.items()
-                      if self.step - ep.last_seen >= self.p.gap_steps]:
+        step, gap = self.step, self.p.gap_steps
+        for other in [g for g, ep in self.open.items() if step - ep.last_seen >= gap]:
             self._close(other)
 
     # -- events -------------------------------------------------------------------------------
-    def _sample(self, ep: _Episode, other: int, pos, pos_object, n, fn, vn, slip) -> None:
+    def _sample(self, ep: _Episode, other: int, pos: Vec, pos_object: Vec, n: Vec, fn: float,
+                vn: float, slip: float) -> None:
         ep.s_steps += 1
         ep.s_force += fn
         ep.s_slip += slip
@@ -225,12 +276,13 @@ class ContactRecorder:
         if ep.s_steps >= self.sample_steps:
             self._flush_sample(ep, other, n)
 
-    def _flush_sample(self, ep: _Episode, other: int, n) -> None:
+    def _flush_sample(self, ep: _Episode, other: int, n: Vec) -> None:
         if ep.s_steps == 0:
             return
         dur = ep.s_steps * self.dt
         slip = ep.s_slip / ep.s_steps
-        travel = float(np.linalg.norm(ep.s_point - ep.s_start_point)) / dur
+        r = _sub(ep.s_point, ep.s_start_point)
+        travel = math.sqrt(_dot(r, r)) / dur
         kind = "scrape" if slip >= self.p.slip_speed_mps else (
             "roll" if travel >= self.p.roll_speed_mps else None)
         if kind is not None:

@@ -49,6 +49,7 @@ class SettleResult:
 
 _WATCHED = ("mjWARN_BADQACC", "mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_CONTACTFULL",
             "mjWARN_CNSTRFULL")
+_WATCHED_IDS = [int(getattr(mujoco.mjtWarning, name)) for name in _WATCHED]
 
 
 def mujoco_warnings(data: mujoco.MjData) -> dict[str, int]:
@@ -111,6 +112,11 @@ def simulate_until_settled(model: mujoco.MjModel, data: mujoco.MjData, body_id: 
     # first pass and a step-by-step replay reach the same verdict at the same step.
     window = max(1, int(math.ceil(criteria.pose_window_s / (dt * POSE_EVERY_STEPS))))
     poses: deque = deque(maxlen=window + 1)
+    # views into data, read as Python floats after every step or chunk (NumPy scalar
+    # arithmetic would cost more than the check itself; the same IEEE operations)
+    qvel, qpos = data.qvel[vadr:vadr + 6], data.qpos[qadr:qadr + 7]
+    warned, watched = data.warning.number, _WATCHED_IDS
+    isfinite, sqrt = math.isfinite, math.sqrt
     while steps < max_steps:
         n = min(chunk, max_steps - steps)
         if recorder is not None:
@@ -120,21 +126,21 @@ def simulate_until_settled(model: mujoco.MjModel, data: mujoco.MjData, body_id: 
         else:
             mujoco.mj_step(model, data, nstep=n)
         steps += n
-        v = data.qvel[vadr:vadr + 6]
-        z = data.qpos[qadr + 2]
-        if not (np.isfinite(v).all() and np.isfinite(z)) or (
-                steps % 50 == 0 or steps >= max_steps or n > 1) and mujoco_warnings(data):
+        v0, v1, v2, v3, v4, v5 = qvel.tolist()
+        q = qpos.tolist()
+        x, y, z = q[0], q[1], q[2]
+        if not (isfinite(v0) and isfinite(v1) and isfinite(v2) and isfinite(v3)
+                and isfinite(v4) and isfinite(v5) and isfinite(z)) or (
+                steps % 50 == 0 or steps >= max_steps or n > 1) and warned[watched].any():
             unstable = True
             break
-        lin, ang = math.sqrt(v[0] ** 2 + v[1] ** 2 + v[2] ** 2), \
-            math.sqrt(v[3] ** 2 + v[4] ** 2 + v[5] ** 2)
-        max_speed, min_z = max(max_speed, lin), min(min_z, float(z))
-        x, y = float(data.qpos[qadr]), float(data.qpos[qadr + 1])
+        lin, ang = sqrt(v0 * v0 + v1 * v1 + v2 * v2), sqrt(v3 * v3 + v4 * v4 + v5 * v5)
+        max_speed, min_z = max(max_speed, lin), min(min_z, z)
         x_lo, x_hi, y_lo, y_hi = min(x_lo, x), max(x_hi, x), min(y_lo, y), max(y_hi, y)
         calm = calm + 1 if (lin < criteria.lin_tol_mps and ang < criteria.ang_tol_radps) else 0
         sampled = steps % POSE_EVERY_STEPS == 0
         if sampled:
-            poses.append((data.qpos[qadr:qadr + 3].copy(), data.qpos[qadr + 3:qadr + 7].copy()))
+            poses.append((q[:3], q[3:]))
         if sampled and give_up is not None and not replay and give_up(data):
             gave_up = True
             break
