@@ -124,15 +124,17 @@ def _sounding(ref: ModalModel, mat: ObjectMaterial, scale: float, mass: float, r
 class FallRenderer:
     """Renders fall events of one world; keeps the modal models it has used most recently,
     up to ``model_budget_bytes`` (a worker of a full build meets ~300 models, ~500 MB; one
-    dropped is loaded again from the modal cache, the same model)."""
+    dropped is loaded again from the modal cache, the same model, ~3 ms for the largest, its
+    surface moments kept: they cost more than the load)."""
 
     def __init__(self, world: World, settings: AudioSettings = AudioSettings(),
-                 model_budget_bytes: int = 256 * 2 ** 20) -> None:
+                 model_budget_bytes: int = 128 * 2 ** 20) -> None:
         self.world = world
         self.s = settings
         self.budget = model_budget_bytes
         self._models: OrderedDict[tuple, ModalModel] = OrderedDict()
         self._model_bytes = 0
+        self._moments: dict[tuple, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         self._rooms: dict[str, tuple[mujoco.MjModel, mujoco.MjData]] = {}
 
     def _room(self, variant_id: str) -> tuple[mujoco.MjModel, mujoco.MjData]:
@@ -158,6 +160,10 @@ class FallRenderer:
             return model
         v, f, nu = mesh()
         model = self._models[key] = modal_model(v, f, nu, self.s.modal, self.s.cache_dir, shell)
+        if key in self._moments:  # loaded again: the moments it had (the same arrays)
+            object.__setattr__(model, "moments", self._moments[key])
+        else:
+            self._moments[key] = model.surface_moments()
         self._model_bytes += _nbytes(model)
         while self._model_bytes > self.budget and len(self._models) > 1:
             _, old = self._models.popitem(last=False)
