@@ -140,3 +140,14 @@ def test_a_shard_loads_only_the_events_it_can_use(tiny_build):
         assert [e.event_id for e in loaded] == sorted(ids)
         assert all(e == everything[e.event_id] for e in loaded)
     assert load_events(cfg, out, set()) == []
+
+
+def test_heap_given_back_only_above_the_threshold(monkeypatch):
+    from fallgen.pipeline import generate as G
+
+    calls = []
+    monkeypatch.setattr(G, "_MALLOC_TRIM", calls.append)
+    rss = G._resident_mb()
+    assert rss > 10  # this process's resident memory, read from /proc
+    assert not G._trim_heap(above_mb=rss + 10_000) and calls == []
+    assert G._trim_heap(above_mb=0) and calls == [0]
