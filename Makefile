@@ -1,5 +1,7 @@
 # fallgen: the two commands a new user needs are `make demo` and `make test`; each sets itself up.
 SHELL := /bin/bash
+# a failing benchmark piped into tee fails its target
+.SHELLFLAGS := -o pipefail -c
 VENV ?= .venv
 PY := $(VENV)/bin/python
 FALLGEN := $(VENV)/bin/fallgen

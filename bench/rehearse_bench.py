@@ -43,9 +43,8 @@ def main() -> None:
     drops = []  # (objects, linvel, angvel, steps of the first pass, kept?)
     simulate = drop._simulate
 
-    def spy(world_, variant_, objs, linvel, angvel, criteria, max_steps=None, keep=None):
-        out = simulate(world_, variant_, objs, linvel, angvel, criteria, max_steps,
-                       **({} if keep is None else {"keep": keep}))
+    def spy(world_, variant_, objs, linvel, angvel, criteria, max_steps=None, **kw):
+        out = simulate(world_, variant_, objs, linvel, angvel, criteria, max_steps, **kw)
         drops.append([objs, linvel, angvel, out[0].steps, False])
         return out
 
