@@ -132,9 +132,9 @@ class ContactRecorder:
     """Call :meth:`before_step` and :meth:`after_step` around every ``mj_step`` (of one
     ``MjData``).
 
-    This runs at every step of every recorded fall, so it works on Python floats: a step
-    without contact costs two attribute reads, one with contact a few microseconds per
-    contact point (NumPy calls on 3-vectors cost a microsecond each)."""
+    This runs at every step of every recorded fall, so it works on Python floats (NumPy calls
+    on 3-vectors cost a microsecond each): a step without contact costs the read of the
+    body's state before it, one with contact a few microseconds per contact point."""
 
     def __init__(self, model: mujoco.MjModel, body_id: int, geom_owner: tuple[str, ...],
                  geom_material: tuple[str, ...], params: ContactParams = ContactParams()) -> None:

@@ -54,12 +54,8 @@ _WATCHED_IDS = [int(getattr(mujoco.mjtWarning, name)) for name in _WATCHED]
 
 def mujoco_warnings(data: mujoco.MjData) -> dict[str, int]:
     """Counts of the MuJoCo warnings that mean a simulation cannot be trusted."""
-    out = {}
-    for name in _WATCHED:
-        n = int(data.warning[int(getattr(mujoco.mjtWarning, name))].number)
-        if n:
-            out[name] = n
-    return out
+    counts = data.warning.number
+    return {name: int(counts[i]) for name, i in zip(_WATCHED, _WATCHED_IDS) if counts[i]}
 
 
 #: Pose sampling period of the "still in place" test (steps).

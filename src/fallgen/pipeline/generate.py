@@ -201,6 +201,9 @@ _MALLOC_TRIM = _malloc_trim()
 TRIM_ABOVE_MB = 768
 
 
+_PAGE = os.sysconf("SC_PAGE_SIZE") if hasattr(os, "sysconf") else 4096
+
+
 def _resident_mb() -> float:
     """This process's resident memory in MB (Linux ``/proc``; 0 where there is none)."""
     try:
@@ -208,9 +211,6 @@ def _resident_mb() -> float:
             return int(f.read().split()[1]) * _PAGE / 2 ** 20
     except (OSError, IndexError, ValueError):
         return 0.0
-
-
-_PAGE = os.sysconf("SC_PAGE_SIZE") if hasattr(os, "sysconf") else 4096
 
 
 def _trim_heap(above_mb: float = TRIM_ABOVE_MB) -> bool:
