@@ -177,3 +177,25 @@ def test_a_trial_below_its_zone_for_good_is_stopped(world):
     w = np.sqrt(2 * m.body_mass[b] * 9.81 * rise / m.body_inertia[b].sum())
     d.qvel[vadr + 3:vadr + 6] = w  # enough spin to lift it there
     assert not give_up(d)
+
+
+def test_a_start_overlap_is_rejected_without_simulating(world):
+    """A target placed into a fixed object is rejected as it starts: no step is simulated
+    (the trial's verdict cannot change), and nothing is recorded."""
+    from fallgen.physics.drop import _simulate
+    from fallgen.world.scene import PlacedObject
+
+    cup = world.categories.instance("cup", "mug", "ceramic")
+    objs = [PlacedObject("target", cup, (2.0, 1.0, 0.3)),
+            PlacedObject("o0", cup, (2.0, 1.0, 0.31), free=False)]
+    res, contacts, com, mass, overlap, _ = _simulate(
+        world, world.variant(ROOMS[0]), objs, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0),
+        SettleCriteria())
+    assert overlap
+    assert res.steps == 0 and not res.settled and contacts == []
+    assert com[2] == pytest.approx(0.3, abs=0.05) and mass > 0
+    # without the fixed box the same start is simulated until it rests
+    res, contacts, _, _, overlap, _ = _simulate(world, world.variant(ROOMS[0]), objs[:1],
+                                                (0.0, 0.0, 0.0), (0.0, 0.0, 0.0),
+                                                SettleCriteria())
+    assert not overlap and res.steps > 0 and res.settled and contacts

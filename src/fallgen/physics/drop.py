@@ -201,11 +201,14 @@ def _simulate(world: World, variant: RoomVariant, objs: list[PlacedObject], linv
         (m.geom_bodyid[d.contact[i].geom1] == b) != (m.geom_bodyid[d.contact[i].geom2] == b)
         and d.contact[i].dist < -1e-3 for i in range(d.ncon))
     first = None
+    if max_steps is None and overlap:  # rejected whatever it does: not simulated
+        first = simulate_until_settled(m, d, b, criteria, max_steps=0)
+        return first, [], d.xipos[b].copy(), float(m.body_mass[b]), overlap, scene
     if max_steps is None:
         first = simulate_until_settled(
             m, d, b, criteria, chunk=CHECK_EVERY_STEPS,
             give_up=None if floor_z is None else _below_for_good(m, b, floor_z))
-        if overlap or not first.settled or not keep(first, d.xipos[b]):
+        if not first.settled or not keep(first, d.xipos[b]):
             return first, [], d.xipos[b].copy(), float(m.body_mass[b]), overlap, scene
         max_steps = first.steps
         d = fresh()
