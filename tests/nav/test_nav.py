@@ -210,11 +210,11 @@ def _one_pose_tilt_steps(pose, target, spec):
     return None if best is None else (best - pose.tilt_deg) // spec.tilt_step_deg
 
 
-def test_vectorised_tilt_choice_and_free_lookup_match_their_references():
-    """The planner's batch forms (one call per bucket) agree exactly with one-pose
-    definitions: the tilt rule spelled out for one pose, and OccupancyGrid.free_for (the
-    simulator's check)."""
-    from fallgen.nav.expert import NO_TILT, _free_lookup, tilt_steps
+def test_compiled_tilt_choice_and_free_lookup_match_their_references():
+    """The compiled search's scalar forms agree exactly with one-pose definitions: the tilt
+    rule spelled out for one pose, and OccupancyGrid.free_for (the simulator's check)."""
+    from fallgen.nav.expert import FOV_DEG, MARGIN_DEG
+    from fallgen.nav.lattice import NO_TILT, free_at, tilt_step
 
     rng = np.random.default_rng(7)
     spec = AgentSpec()
@@ -223,12 +223,79 @@ def test_vectorised_tilt_choice_and_free_lookup_match_their_references():
         xy = rng.uniform(0.0, 6.0, (400, 2))
         dist = np.hypot(target[0] - xy[:, 0], target[1] - xy[:, 1])
         dist[:3] = 0.0  # straight below or above
-        got = tilt_steps(dist, target, tilt, spec)
-        for d, g in zip(dist, got):
+        for d in dist.tolist():
+            g = tilt_step(d, target[2], spec.camera_height_m, tilt, spec.tilt_min_deg,
+                          spec.tilt_max_deg, spec.tilt_step_deg, FOV_DEG / 2 - MARGIN_DEG)
             p = Pose(float(target[0] - d), float(target[1]), 0, tilt)  # same distance
             want = _one_pose_tilt_steps(p, target, spec)
             assert (g == NO_TILT) if want is None else g == want
-    free = _free_lookup(WALLED, 0.2)
+    ok = np.full((WALLED.shape[0] + 2, WALLED.shape[1] + 2), False)
+    ok[1:-1, 1:-1] = WALLED.clearance >= 0.2
     pts = rng.uniform(-1.0, 7.0, (5000, 2))
     pts[:50] = np.round(pts[:50] / 0.1) * 0.1  # on cell edges
-    assert np.array_equal(free(pts[:, 0], pts[:, 1]), WALLED.free_for(pts, 0.2))
+    got = [free_at(ok, WALLED.resolution, WALLED.shape[0] + 1, WALLED.shape[1] + 1, x, y)
+           for x, y in pts.tolist()]
+    assert np.array_equal(got, WALLED.free_for(pts, 0.2))
+
+
+def test_compiled_search_makes_the_plans_of_its_numpy_reference():
+    """The compiled lattice search (fallgen.nav.lattice) against the vectorised NumPy search
+    it replaced (tests/nav/numpy_search.py), in random clutter with arbitrary line-of-sight
+    and visibility verdicts, both cost settings: the same actions, goal, path length, renders
+    and total cost, and the same refusals."""
+    import importlib.util
+    from pathlib import Path
+
+    from fallgen.nav.expert import _search
+
+    spec_ = importlib.util.spec_from_file_location(
+        "numpy_search", Path(__file__).with_name("numpy_search.py"))
+    module = importlib.util.module_from_spec(spec_)
+    spec_.loader.exec_module(module)
+    reference = module.search
+
+    rng = np.random.default_rng(11)
+    spec = AgentSpec()
+    compared = nopath = 0
+    for trial in range(60):
+        occ = np.zeros((int(rng.integers(30, 70)), int(rng.integers(30, 70))), bool)
+        occ[[0, -1], :] = occ[:, [0, -1]] = True
+        for _ in range(int(rng.integers(0, 16))):
+            x, y = rng.integers(2, occ.shape[0] - 4), rng.integers(2, occ.shape[1] - 4)
+            occ[x:x + rng.integers(1, 6), y:y + rng.integers(1, 6)] = True
+        g = grid_from(occ)
+        free = np.argwhere(g.clearance >= 0.3)
+        if len(free) < 2:
+            continue
+        a, b = free[rng.choice(len(free), 2, replace=False)]
+        start = Pose(float((a[0] + rng.uniform(0.2, 0.8)) * 0.1),
+                     float((a[1] + rng.uniform(0.2, 0.8)) * 0.1), int(rng.integers(12)),
+                     int(rng.choice([0, -15, 15])))
+        target = np.array([(b[0] + 0.5) * 0.1, (b[1] + 0.5) * 0.1, rng.uniform(0.0, 2.0)])
+        salt, p_los = int(rng.integers(1 << 30)), rng.uniform(0.2, 1.0)
+        p_vis = rng.uniform(0.02, 1.0) if trial % 8 else 0.0  # never: refusals only
+
+        def verdict(p: Pose, share: float, extra: int, salt: int = salt) -> bool:
+            h = hash((round(p.x * 1e9), round(p.y * 1e9), p.heading, p.tilt_deg, salt, extra))
+            return (h % 1000) < share * 1000
+
+        def los(p: Pose, share: float = p_los) -> bool:
+            return verdict(Pose(p.x, p.y, 0), share, 1)
+
+        def vis(p: Pose, share: float = p_vis) -> bool:
+            return verdict(p, share, 2)
+
+        view = float(rng.choice([math.inf, 2.5, 1.2, 0.5]))  # 0.5: no candidate at all
+        for costs in ((1000, 1), (1, 1)):
+            try:
+                plan, total = _search(start, g, target, spec, *costs, los, vis, view)
+            except NoPath as e:
+                with pytest.raises(NoPath) as ref_e:
+                    reference(start, g, target, spec, *costs, los, vis, view)
+                assert str(ref_e.value) == str(e)
+                nopath += 1
+                continue
+            want = reference(start, g, target, spec, *costs, los, vis, view)
+            assert (plan.actions, plan.goal, plan.path_m, plan.renders, total) == want, trial
+            compared += 1
+    assert compared >= 50 and nopath >= 3, (compared, nopath)
