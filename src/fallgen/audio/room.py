@@ -284,9 +284,15 @@ def late_reverb(room: RoomAcoustics, level: np.ndarray, start_s: float, n_out: i
     # frame i is centred on buffer sample i hop + frame / 2, i.e. on time t_i = (i - 1) hop
     off = hop + frame // 2
     out = out[:, off:off + n_out]
-    n = np.arange(n_out) / sample_rate
+    # faded in over 5 ms about start_s: sin^2 of the ramp (0 before it, 1 after it, where the
+    # product is the same as with the whole-length gain, negative zeros included)
+    i0 = min(n_out, max(0, int(math.floor((start_s - 0.0025) * sample_rate)) - 1))
+    i1 = min(n_out, max(i0, int(math.ceil((start_s + 0.0025) * sample_rate)) + 2))
+    n = np.arange(i0, i1) / sample_rate
     fade = np.clip((n - start_s) / 0.005 + 0.5, 0.0, 1.0)
-    return out * np.sin(np.pi / 2 * fade) ** 2
+    out[:, :i0] *= 0.0
+    out[:, i0:i1] *= np.sin(np.pi / 2 * fade) ** 2
+    return out
 
 
 def eyring_density(room: RoomAcoustics, t_s: float) -> np.ndarray:
