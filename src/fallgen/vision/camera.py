@@ -163,8 +163,9 @@ class EgoCamera:
         rgb = depth = None
         if what == "all":
             rgb = f.rgb(data, cam)
-            depth = f.depth(data, cam)
-        geom = f.geoms(data, cam)
+            depth, geom = f.depth_and_geoms(data, cam)
+        else:
+            geom = f.geoms(data, cam)
         inst, cat = self._inst[geom], self._cat[geom]
         empty = np.zeros((0, 0), np.float32)
         return View(rgb if rgb is not None else np.zeros((0, 0, 3), np.uint8),

@@ -87,10 +87,19 @@ class SceneFrames:
         mujoco.mjr_readPixels(out, None, self._rect, self._con)
         return np.ascontiguousarray(np.flipud(out))
 
-    def depth(self, data: mujoco.MjData, camera: mujoco.MjvCamera) -> np.ndarray:
+    def depth_and_geoms(self, data: mujoco.MjData, camera: mujoco.MjvCamera
+                        ) -> tuple[np.ndarray, np.ndarray]:
+        """Depth (metres along the view axis) and :meth:`geoms` of the whole image, both read
+        from one segmentation render (as ``mujoco.Renderer`` draws depth: segment colours are
+        more accurate far away)."""
         self._draw(data, camera, True)
+        rgb = np.empty((self.size, self.size, 3), np.uint8)
         raw = np.empty((self.size, self.size), np.float32)
-        mujoco.mjr_readPixels(None, raw, self._rect, self._con)
+        mujoco.mjr_readPixels(rgb, raw, self._rect, self._con)
+        return self._metres(raw), self._geom_ids(rgb)
+
+    def _metres(self, raw: np.ndarray) -> np.ndarray:
+        """The depth buffer ``raw`` (bottom row first) as metres along the view axis."""
         extent = self.model.stat.extent
         znear = np.float32(self.model.vis.map.znear * extent)
         zfar = np.float32(self.model.vis.map.zfar * extent)
@@ -123,6 +132,11 @@ class SceneFrames:
                 rect = mujoco.MjrRect(c0, self.size - r1, c1 - c0, r1 - r0)  # GL rows: bottom up
         rgb = np.empty((rect.height, rect.width, 3), np.uint8)
         mujoco.mjr_readPixels(rgb, None, rect, self._con)
+        return self._geom_ids(rgb)
+
+    def _geom_ids(self, rgb: np.ndarray) -> np.ndarray:
+        """The geom id of each pixel of a segmentation render ``rgb`` (bottom row first),
+        image rows from the top; -1 for none."""
         c = rgb.astype(np.uint32)
         segid = c[..., 0] + c[..., 1] * (2 ** 8) + c[..., 2] * (2 ** 16)
         n = self._scene.ngeom
