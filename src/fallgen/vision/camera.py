@@ -106,7 +106,9 @@ class EgoCamera:
         m.vis.global_.offwidth = m.vis.global_.offheight = size
         if not m.light_castshadow.any():
             m.vis.quality.shadowsize = 0
-        self.frames = SceneFrames(m, context, max_geom=max(1000, 4 * m.ngeom))
+        # room for every geom and site the default options draw, twice over (a scene's
+        # arrays cost ~2 us a slot to make; SceneFrames refuses a full scene)
+        self.frames = SceneFrames(m, context, max_geom=2 * (m.ngeom + m.nsite) + 64)
         self.instances = tuple(sorted(set(scene.geom_owner)))
         inst_of_geom = np.array([self.instances.index(o) for o in scene.geom_owner], np.int16)
         cats = object_categories or {}

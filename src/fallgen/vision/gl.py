@@ -61,6 +61,8 @@ class SceneFrames:
         image, into the corner of the buffer (the frustum narrowed to it). The rect drawn."""
         mujoco.mjv_updateScene(self.model, data, self._option, None, camera,
                                mujoco.mjtCatBit.mjCAT_ALL.value, self._scene)
+        if self._scene.ngeom >= self._scene.maxgeom:  # geoms were left out
+            raise RuntimeError(f"the scene holds only {self._scene.maxgeom} geoms")
         flags = self._scene.flags
         # depth and segmentation are drawn with segment colours (as mujoco.Renderer does: the
         # depth is more accurate far away)
