@@ -48,6 +48,7 @@ class SceneFrames:
         self._scene = mujoco.MjvScene(model=model, maxgeom=max_geom)
         self._option = mujoco.MjvOption()
         self._rect = mujoco.MjrRect(0, 0, self.size, self.size)
+        self._table: np.ndarray | None = None
 
     def close(self) -> None:
         if self._con is not None:
@@ -141,10 +142,18 @@ class SceneFrames:
         image rows from the top; -1 for none."""
         c = rgb.astype(np.uint32)
         segid = c[..., 0] + c[..., 1] * (2 ** 8) + c[..., 2] * (2 ** 16)
+        return np.ascontiguousarray(np.flipud(self._segment_table()[segid]))
+
+    def _segment_table(self) -> np.ndarray:
+        """Geom id of each segment colour (0: the background) of the scene last drawn. Every
+        draw of one model lists the same geoms in the same order (MuJoCo culls nothing), so
+        the table is made once per length of the list."""
         n = self._scene.ngeom
-        table = np.full(n + 1, -1, np.int64)  # segment id 0 is the background
-        geom = int(mujoco.mjtObj.mjOBJ_GEOM)
-        for g in self._scene.geoms[:n]:
-            if g.segid != -1 and g.objtype == geom and g.objid >= 0:
-                table[g.segid + 1] = g.objid
-        return np.ascontiguousarray(np.flipud(table[segid]))
+        if self._table is None or len(self._table) != n + 1:
+            table = np.full(n + 1, -1, np.int64)  # segment id 0 is the background
+            geom = int(mujoco.mjtObj.mjOBJ_GEOM)
+            for g in self._scene.geoms[:n]:
+                if g.segid != -1 and g.objtype == geom and g.objid >= 0:
+                    table[g.segid + 1] = g.objid
+            self._table = table
+        return self._table
