@@ -13,6 +13,9 @@ command line in fresh processes:
    need, and the cache files are read once, so neither timed run meets a cold disk): episodes
    per second, the speed-up of ``--workers`` over 1 (goal >= 1.8x with 2), the same bytes from
    both, and the peak resident memory of the largest process (goal < 1 GB per worker). The
+   runs alternate, 1 worker then ``--workers`` then ``--workers`` then 1 and so on
+   (``--repeats`` pairs): the development VM's speed drifts by up to a third within minutes,
+   and the speed-up is the ratio of the summed times (each pair's ratio is reported too). The
    shard is the unit of work: smaller ones would weigh a worker's fixed costs (its start, its
    first loads of every variant's models) more than a full build, where each worker makes 16;
 3. the extrapolated full build (64 variants, 8000 episodes) = rehearsal + generation, against the
@@ -31,6 +34,7 @@ import math
 import os
 import platform
 import re
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -80,6 +84,8 @@ def main() -> None:
     ap.add_argument("--variants", type=int, default=4)
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 2)
     ap.add_argument("--shards-per-worker", type=int, default=1)
+    ap.add_argument("--repeats", type=int, default=2,
+                    help="pairs of generation runs (1 worker and --workers), alternating")
     ap.add_argument("--cold-modes", action="store_true",
                     help="also time `fallgen assets modes` into an empty cache")
     args = ap.parse_args()
@@ -110,8 +116,6 @@ def main() -> None:
                                      str(args.workers)], env)
         report["rehearse"] = {"wall_s": round(t, 1), "s_per_variant": round(t / len(rooms), 2),
                               "peak_rss_mb": round(rss)}
-        (d / "b").mkdir()
-        os.symlink(d / "a" / "rehearsal", d / "b" / "rehearsal")
         (d / "w").mkdir()
         os.symlink(d / "a" / "rehearsal", d / "w" / "rehearsal")
         # warm-up: solves and caches every modal model these events need (if one is missing),
@@ -121,22 +125,37 @@ def main() -> None:
 
         for p in default_cache_dir().glob("*.npz"):
             p.read_bytes()
-        t1, rss1 = _measure(fallgen + ["generate", "-c", str(cfg), "--workers", "1"], env)
-        tn, rssn = _measure(fallgen + ["generate", "-c", str(cfg), "--out", str(d / "b"),
-                                       "--workers", str(args.workers)], env)
+        runs: dict[int, list[tuple[float, float, str]]] = {1: [], args.workers: []}
+        for r in range(args.repeats):
+            for w in ((1, args.workers) if r % 2 == 0 else (args.workers, 1)):
+                out = d / f"g{r}-{w}"
+                out.mkdir()
+                os.symlink(d / "a" / "rehearsal", out / "rehearsal")
+                t, rss = _measure(fallgen + ["generate", "-c", str(cfg), "--out", str(out),
+                                             "--workers", str(w)], env)
+                runs[w].append((t, rss, _digest(out)))
+                if (w, r) != (1, 0):
+                    shutil.rmtree(out / "data"), shutil.rmtree(out / "media")
         from fallgen.dataset.manifest import read_manifest
 
-        made = sum(read_manifest(d / "a")["episodes"].values())
-        size = sum(p.stat().st_size for x in ("data", "media") for p in (d / "a" / x).glob("*"))
+        first = d / "g0-1"
+        made = sum(read_manifest(first)["episodes"].values())
+        size = sum(p.stat().st_size for x in ("data", "media") for p in (first / x).glob("*"))
+        t1 = sum(t for t, _, _ in runs[1])
+        tn = sum(t for t, _, _ in runs[args.workers])
         report["generate"] = {
             "episodes_made": made,
-            "one_worker": {"wall_s": round(t1, 1), "episodes_per_s": round(made / t1, 3),
-                           "peak_rss_mb": round(rss1)},
-            f"{args.workers}_workers": {"wall_s": round(tn, 1),
-                                        "episodes_per_s": round(made / tn, 3),
-                                        "peak_rss_mb_largest_process": round(rssn)},
+            "one_worker": {"wall_s": [round(t, 1) for t, _, _ in runs[1]],
+                           "episodes_per_s": round(made * args.repeats / t1, 3),
+                           "peak_rss_mb": round(max(m for _, m, _ in runs[1]))},
+            f"{args.workers}_workers": {
+                "wall_s": [round(t, 1) for t, _, _ in runs[args.workers]],
+                "episodes_per_s": round(made * args.repeats / tn, 3),
+                "peak_rss_mb_largest_process": round(max(m for _, m, _ in runs[args.workers]))},
             "speedup": round(t1 / tn, 2),
-            "same_bytes": _digest(d / "a") == _digest(d / "b"),
+            "speedup_per_pair": [round(a[0] / b[0], 2)
+                                 for a, b in zip(runs[1], runs[args.workers])],
+            "same_bytes": len({h for v in runs.values() for _, _, h in v}) == 1,
             "bytes_per_episode": int(size / max(made, 1))}
     if args.cold_modes:
         with tempfile.TemporaryDirectory() as c:
