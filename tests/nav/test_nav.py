@@ -299,3 +299,37 @@ def test_compiled_search_makes_the_plans_of_its_numpy_reference():
             assert (plan.actions, plan.goal, plan.path_m, plan.renders, total) == want, trial
             compared += 1
     assert compared >= 50 and nopath >= 3, (compared, nopath)
+
+
+def test_lattice_ring_too_short_is_an_error_not_a_wrong_plan():
+    """The bucket ring holds one slot per cost over a move and a turn; with fewer, two live
+    costs would share a slot: the search stops with an error instead of mixing them."""
+    from fallgen.nav.agent import HEADING_VECTORS, STEP_FRACTIONS, TURN_DEG
+    from fallgen.nav.expert import BIN_M
+    from fallgen.nav.lattice import Lattice
+
+    spec = AgentSpec()
+    g = EMPTY
+    nbx = int(math.ceil(g.shape[0] * g.resolution / BIN_M)) + 1
+    nby = int(math.ceil(g.shape[1] * g.resolution / BIN_M)) + 1
+    ok = np.zeros((g.shape[0] + 2, g.shape[1] + 2), bool)
+    ok[1:-1, 1:-1] = g.clearance >= spec.radius_m
+
+    def lattice(ring: int | None) -> Lattice:
+        lat = Lattice(size=nbx * nby * 12, nby=nby, ok=ok, resolution=g.resolution, bin_m=BIN_M,
+                      step_m=STEP_M, step_fractions=STEP_FRACTIONS,
+                      heading_vectors=HEADING_VECTORS, turn_deg=TURN_DEG,
+                      target=np.array([5.5, 3.5, 0.4]), camera_height_m=spec.camera_height_m,
+                      reach_m=1.9, max_view_m=math.inf, half_fov_deg=35.0, move_cost=1000,
+                      turn_cost=1, tilt_deg=0, tilt_min_deg=spec.tilt_min_deg,
+                      tilt_max_deg=spec.tilt_max_deg, tilt_step_deg=spec.tilt_step_deg,
+                      actions=(FORWARD, LEFT, RIGHT))
+        if ring is not None:
+            lat._head = np.full(ring, -1, np.int64)
+        s0 = (math.floor(0.5 / BIN_M) * nby + math.floor(0.5 / BIN_M)) * 12
+        lat.start(s0, 0.5, 0.5)
+        return lat
+
+    assert len(lattice(None).advance()) > 0  # candidates near the far corner
+    with pytest.raises(RuntimeError, match="share a bucket"):
+        lattice(7).advance()

@@ -40,8 +40,10 @@ C_LIVE, C_ENTRIES, C_LOW, C_PENDING, C_FOUND, C_STAMP = range(6)
 @njit(cache=True)
 def _enter(head, nxt, states, counts, cost, s):
     """Put state ``s`` into the bucket of ``cost`` (a ring of buckets, one per cost: the live
-    costs span less than the ring)."""
+    costs span less than the ring, see :func:`_lowest`)."""
     e = counts[C_ENTRIES]
+    if e >= len(states):
+        raise RuntimeError("lattice search: more bucket entries than its bound")
     slot = cost % len(head)
     states[e], nxt[e] = s, head[slot]
     head[slot] = e
@@ -52,7 +54,10 @@ def _enter(head, nxt, states, counts, cost, s):
 
 @njit(cache=True)
 def _lowest(head, counts):
-    """The lowest cost with a live bucket (-1 if none)."""
+    """The lowest cost with a live bucket (-1 if none). The live costs always lie within a
+    move and a turn of each other (a bucket's expansion enters costs at most a move above it,
+    and pending moves are made once a turn could cost as much), so one ring slot per cost
+    over that span holds every live bucket alone; :func:`advance` checks it."""
     if counts[C_LIVE] == 0:
         return -1
     c = counts[C_LOW]
@@ -198,7 +203,10 @@ def advance(best, px, py, parent, act, mark, head, nxt, entries, pend_cost, pend
         slot = c % len(head)
         e, n = head[slot], 0
         while e >= 0:
-            scratch[n] = entries[e]
+            s = entries[e]
+            if best[s] > c:  # an entry of a higher cost in this slot: the ring is too short
+                raise RuntimeError("lattice search: two live costs share a bucket")
+            scratch[n] = s
             n += 1
             e = nxt[e]
         head[slot] = -1
