@@ -310,8 +310,8 @@ def test_lattice_ring_too_short_is_an_error_not_a_wrong_plan():
 
     spec = AgentSpec()
     g = EMPTY
-    nbx = int(math.ceil(g.shape[0] * g.resolution / BIN_M)) + 1
-    nby = int(math.ceil(g.shape[1] * g.resolution / BIN_M)) + 1
+    nbx = math.ceil(g.shape[0] * g.resolution / BIN_M) + 1
+    nby = math.ceil(g.shape[1] * g.resolution / BIN_M) + 1
     ok = np.zeros((g.shape[0] + 2, g.shape[1] + 2), bool)
     ok[1:-1, 1:-1] = g.clearance >= spec.radius_m
 
