@@ -4,7 +4,8 @@ From the start pose, ``move_forward`` (0.25 m along one of 12 headings) and the 
 a lattice of poses; positions are merged into 5 cm bins per heading (the first, cheapest pose to
 reach a bin represents it). A bucket-queue Dijkstra over this lattice (compiled with Numba:
 :mod:`fallgen.nav.lattice`) finds, for a cost per forward move and per turn, the cheapest pose
-from which the object can be seen; the tilt steps that centre it vertically and ``found`` complete the sequence.
+from which the object can be seen; the tilt steps that centre it vertically and ``found``
+complete the sequence.
 
 A goal pose: horizontal distance to the object at most ``SUCCESS_DISTANCE_M`` - 0.1 m, the
 object within the horizontal field of view less a 10 degree margin, and a clear line of sight
