@@ -13,6 +13,7 @@ from fallgen.nav.agent import (DOWN, FORWARD, FOUND, HEADING_VECTORS, HEADINGS, 
                                STEP_FRACTIONS, STEP_M, SUCCESS_DISTANCE_M, TURN_DEG, UP,
                                AgentSpec, Pose)
 from fallgen.nav.expert import BIN_M, FOV_DEG, MARGIN_DEG, MAX_RENDER_CHECKS, NoPath
+from fallgen.nav.lattice import trace
 from fallgen.nav.occupancy import OccupancyGrid
 
 
@@ -166,12 +167,7 @@ def search(start: Pose, grid: OccupancyGrid, target, spec: AgentSpec, move_cost:
     if result is None:
         raise NoPath(f"no reachable pose sees the object ({renders} candidate poses rendered)")
     total, s, t, goal = result
-    moves: list[int] = []
-    path = 0.0
-    while s != s0:
-        moves.append(int(act[s]))
-        if act[s] == FORWARD:
-            path += STEP_M
-        s = int(parent[s])
-    actions = moves[::-1] + [UP if t > 0 else DOWN] * abs(t) + [FOUND]
+    moves = trace(act, parent, s0, s)  # the path back is not the search: shared
+    actions = moves + [UP if t > 0 else DOWN] * abs(t) + [FOUND]
+    path = moves.count(FORWARD) * STEP_M
     return tuple(actions), goal, path, renders, total

@@ -161,6 +161,18 @@ def test_expert_uses_the_renderer_verdict_and_fails_cleanly():
     assert calls  # candidates were rendered and all refused
 
 
+def _cluttered(rng, shape: tuple[int, int], boxes: int, side: int):
+    """A walled grid of ``shape`` cells with ``boxes`` random boxes (and thin legs) of sides
+    below ``side`` cells at off-grid places, and its cells with 0.3 m of clearance."""
+    occ = np.zeros(shape, bool)
+    occ[[0, -1], :] = occ[:, [0, -1]] = True
+    for _ in range(boxes):
+        x, y = rng.integers(2, shape[0] - 4), rng.integers(2, shape[1] - 4)
+        occ[x:x + rng.integers(1, side), y:y + rng.integers(1, side)] = True
+    g = grid_from(occ)
+    return g, np.argwhere(g.clearance >= 0.3)
+
+
 def test_expert_plans_execute_exactly_in_cluttered_rooms():
     """The planner checks forward moves with the simulator's own points (a disagreement once made
     an expert walk into a table corner: blocked moves, object out of view). In random clutter,
@@ -168,13 +180,7 @@ def test_expert_plans_execute_exactly_in_cluttered_rooms():
     rng = np.random.default_rng(4)
     checked = 0
     for _ in range(40):
-        occ = np.zeros((50, 40), bool)
-        occ[[0, -1], :] = occ[:, [0, -1]] = True
-        for _ in range(12):  # boxes and thin legs at off-grid places
-            x, y = rng.integers(2, 46), rng.integers(2, 36)
-            occ[x:x + rng.integers(1, 5), y:y + rng.integers(1, 5)] = True
-        g = grid_from(occ)
-        free = np.argwhere(g.clearance >= 0.3)
+        g, free = _cluttered(rng, (50, 40), 12, 5)
         if len(free) < 2:
             continue
         a, b = free[rng.choice(len(free), 2, replace=False)]
@@ -258,13 +264,8 @@ def test_compiled_search_makes_the_plans_of_its_numpy_reference():
     spec = AgentSpec()
     compared = nopath = 0
     for trial in range(60):
-        occ = np.zeros((int(rng.integers(30, 70)), int(rng.integers(30, 70))), bool)
-        occ[[0, -1], :] = occ[:, [0, -1]] = True
-        for _ in range(int(rng.integers(0, 16))):
-            x, y = rng.integers(2, occ.shape[0] - 4), rng.integers(2, occ.shape[1] - 4)
-            occ[x:x + rng.integers(1, 6), y:y + rng.integers(1, 6)] = True
-        g = grid_from(occ)
-        free = np.argwhere(g.clearance >= 0.3)
+        shape = (int(rng.integers(30, 70)), int(rng.integers(30, 70)))
+        g, free = _cluttered(rng, shape, int(rng.integers(0, 16)), 6)
         if len(free) < 2:
             continue
         a, b = free[rng.choice(len(free), 2, replace=False)]
@@ -326,8 +327,7 @@ def test_lattice_ring_too_short_is_an_error_not_a_wrong_plan():
                       actions=(FORWARD, LEFT, RIGHT))
         if ring is not None:
             lat._head = np.full(ring, -1, np.int64)
-        s0 = (math.floor(0.5 / BIN_M) * nby + math.floor(0.5 / BIN_M)) * 12
-        lat.start(s0, 0.5, 0.5)
+        lat.start(0.5, 0.5, 0)
         return lat
 
     assert len(lattice(None).advance()) > 0  # candidates near the far corner

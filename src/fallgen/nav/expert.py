@@ -29,7 +29,7 @@ import numpy as np
 from fallgen.nav.agent import (DOWN, FORWARD, FOUND, HEADING_VECTORS, HEADINGS, LEFT, RIGHT,
                                STEP_FRACTIONS, STEP_M, SUCCESS_DISTANCE_M, TURN_DEG, UP,
                                AgentSpec, Pose)
-from fallgen.nav.lattice import Lattice
+from fallgen.nav.lattice import Lattice, trace
 from fallgen.nav.occupancy import OccupancyGrid
 
 BIN_M = 0.05
@@ -69,9 +69,7 @@ def _search(start: Pose, grid: OccupancyGrid, target, spec: AgentSpec, move_cost
                   turn_cost=turn_cost, tilt_deg=start.tilt_deg, tilt_min_deg=spec.tilt_min_deg,
                   tilt_max_deg=spec.tilt_max_deg, tilt_step_deg=spec.tilt_step_deg,
                   actions=(FORWARD, LEFT, RIGHT))
-    s0 = (math.floor(start.x / BIN_M) * nby + math.floor(start.y / BIN_M)) * HEADINGS \
-        + start.heading
-    lat.start(s0, start.x, start.y)
+    s0 = lat.start(start.x, start.y, start.heading)
     renders = 0
     result = None
     while result is None:
@@ -98,14 +96,9 @@ def _search(start: Pose, grid: OccupancyGrid, target, spec: AgentSpec, move_cost
     if result is None:
         raise NoPath(f"no reachable pose sees the object ({renders} candidate poses rendered)")
     total, s, t, goal = result
-    moves: list[int] = []
-    path = 0.0
-    while s != s0:
-        moves.append(int(lat.act[s]))
-        if lat.act[s] == FORWARD:
-            path += STEP_M
-        s = int(lat.parent[s])
-    actions = moves[::-1] + [UP if t > 0 else DOWN] * abs(t) + [FOUND]
+    moves = trace(lat.act, lat.parent, s0, s)
+    actions = moves + [UP if t > 0 else DOWN] * abs(t) + [FOUND]
+    path = moves.count(FORWARD) * STEP_M
     return Plan(tuple(actions), goal, path, renders), total
 
 

@@ -10,9 +10,10 @@ the tilt choice) is :mod:`fallgen.nav.expert`'s design, step for step: the same 
 operations in the same order, so the same plans as the vectorised NumPy form it replaced
 (``tests/nav`` keeps that form as its reference).
 
-A state is ``bin * HEADINGS + heading`` with ``bin = floor(x / BIN_M) * nby + floor(y / BIN_M)``.
-Buckets (states by cost) and found candidates (by total cost, state, tilt steps) are binary
-heaps of int64 keys, so a bucket's states come out in state order.
+A state is ``bin * HEADINGS + heading`` with ``bin = floor(x / BIN_M) * nby + floor(y / BIN_M)``
+(:func:`state_of`). Buckets (states by cost) are a ring of linked lists, one slot per cost, each
+sorted by state when it is expanded; found candidates (by total cost, state, tilt steps) are a
+binary heap of int64 keys.
 """
 
 from __future__ import annotations
@@ -131,6 +132,14 @@ def tilt_step(dist, tz, camera, tilt0, tilt_min, tilt_max, tilt_step_deg, half_f
 
 
 @njit(cache=True)
+def state_of(x, y, heading, bin_m, nby, headings):
+    """The state of a pose at (x, y) with ``heading``: its 5 cm bin times the headings, plus
+    the heading (out of range for a pose outside the grid's bins)."""
+    return (np.int64(np.floor(x / bin_m)) * nby + np.int64(np.floor(y / bin_m))) * headings \
+        + heading
+
+
+@njit(cache=True)
 def _move_forward(best, px, py, parent, act, mark, head, nxt, entries, pend_cost, pend_state,
                   pend_x, pend_y, counts, ok, dirs, fracs, fp, ip):
     """Every pending forward move, in the order the moves were queued (cost, then state): a
@@ -153,8 +162,7 @@ def _move_forward(best, px, py, parent, act, mark, head, nxt, entries, pend_cost
                 break
         if not clear:
             continue
-        s = (np.int64(np.floor(x1 / binm)) * nby + np.int64(np.floor(y1 / binm))) \
-            * headings + k
+        s = state_of(x1, y1, k, binm, nby, headings)
         if s < 0 or s >= size or mark[s] == stamp:
             continue
         mark[s] = stamp
@@ -260,6 +268,16 @@ def advance(best, px, py, parent, act, mark, head, nxt, entries, pend_cost, pend
                     _enter(head, nxt, entries, counts, c + turn, s2)
 
 
+def trace(act: np.ndarray, parent: np.ndarray, s0: int, s: int) -> list[int]:
+    """The actions (``act`` of each state) along the ``parent`` links from state ``s0`` to
+    state ``s``, in the order they are taken."""
+    moves: list[int] = []
+    while s != s0:
+        moves.append(int(act[s]))
+        s = int(parent[s])
+    return moves[::-1]
+
+
 class Lattice:
     """One search's state arrays (``size`` states) and constant parameters; :meth:`advance`
     runs it to the next candidates."""
@@ -301,9 +319,13 @@ class Lattice:
         self._scratch = (np.empty(size, np.int64), np.empty(size), np.empty(size))
         self._counts = np.zeros(6, np.int64)
 
-    def start(self, s0: int, x: float, y: float) -> None:
+    def start(self, x: float, y: float, heading: int) -> int:
+        """Start the search at a pose; returns its state."""
+        ip = self._ip
+        s0 = int(state_of(x, y, heading, self._fp[P_BIN], ip[I_NBY], ip[I_HEADINGS]))
         self.best[s0], self.px[s0], self.py[s0] = 0, x, y
         _enter(self._head, *self._entries, self._counts, 0, s0)
+        return s0
 
     def advance(self) -> np.ndarray:
         """The next candidates to confirm, (M, 3) rows of (total cost, state, tilt steps)
