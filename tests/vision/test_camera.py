@@ -85,7 +85,10 @@ def test_frustum_cull_never_hides_a_visible_object(cam_scene):
 def test_shared_context_gives_mujoco_renderers_pixels(world):
     """Scenes drawn one after another in one shared GL context, with the camera's small
     offscreen buffer and no shadow map, give exactly the RGB, depth and segmentation of
-    ``mujoco.Renderer`` on the model's default buffer (its own context per scene)."""
+    ``mujoco.Renderer`` on the model's default buffer (its own context per scene). Colour is
+    drawn multisampled and segmentation and depth single-sampled, in one buffer remade between
+    them: segmentation-only views first, then full views (colour, then depth and
+    segmentation) alternate the two."""
     from fallgen.vision.gl import GLContext
 
     v = world.variant(VARIANT)
@@ -97,7 +100,9 @@ def test_shared_context_gives_mujoco_renderers_pixels(world):
             d = scene.data()
             mujoco.mj_forward(scene.model, d)
             cam = EgoCamera(scene, {"target": "cup"}, context=shared)
-            ours = [cam.render(d, Pose(2.5, 1.8, k, t)) for k in (0, 1, 11) for t in (-30, 0)]
+            poses = [Pose(2.5, 1.8, k, t) for k in (0, 1, 11) for t in (-30, 0)]
+            segs = [cam.render(d, p, "segmentation") for p in poses]
+            ours = [cam.render(d, p) for p in poses]
             cam.close()
             m = scene.model
             m.vis.global_.offwidth, m.vis.global_.offheight = 640, 480
@@ -120,6 +125,7 @@ def test_shared_context_gives_mujoco_renderers_pixels(world):
                 assert np.array_equal(ours[k].rgb, rgb)
                 assert np.array_equal(ours[k].depth, depth)
                 assert np.array_equal(ours[k].instance, cam._inst[ids])
+                assert np.array_equal(segs[k].instance, cam._inst[ids])
             ref.close()
             assert ours[0].pixels_of("obj:target") > 0 or ours[1].pixels_of("obj:target") > 0
     finally:

@@ -143,8 +143,11 @@ class EgoCamera:
         """(x right, y up, z forward) of room-frame ``points`` (N, 3) in the camera's frame at
         ``pose`` (a free camera: its right vector is horizontal)."""
         eye, f = self._eye_and_forward(pose)
-        r = np.array([math.sin(pose.yaw_rad), -math.cos(pose.yaw_rad), 0.0])
-        u = np.cross(r, f)
+        r0, r1, r2 = math.sin(pose.yaw_rad), -math.cos(pose.yaw_rad), 0.0
+        f0, f1, f2 = f.tolist()
+        r = np.array([r0, r1, r2])
+        # up = right x forward, as np.cross computes it (term for term)
+        u = np.array([r1 * f2 - r2 * f1, r2 * f0 - r0 * f2, r0 * f1 - r1 * f0])
         rel = points - eye
         return rel @ r, rel @ u, rel @ f
 
@@ -233,15 +236,18 @@ class EgoCamera:
         if not hulls:
             return 0, None
         pts = np.vstack(hulls)
-        c0, r0 = np.floor(pts.min(0) - 1).astype(int).clip(0, size)
-        c1, r1 = np.ceil(pts.max(0) + 1).astype(int).clip(0, size)
+        (cmin, rmin), (cmax, rmax) = pts.min(0).tolist(), pts.max(0).tolist()
+        c0, r0 = (min(max(math.floor(v - 1), 0), size) for v in (cmin, rmin))
+        c1, r1 = (min(max(math.ceil(v + 1), 0), size) for v in (cmax, rmax))
         if c1 <= c0 or r1 <= r0:
             return 0, None
-        cc, rr = np.meshgrid(np.arange(c0, c1) + 0.5, np.arange(r0, r1) + 0.5)
-        inside = np.zeros(cc.shape, bool)
+        # pixel centres of the window: a row of columns and a column of rows (broadcast)
+        cc = (np.arange(c0, c1) + 0.5)[None, :]
+        rr = (np.arange(r0, r1) + 0.5)[:, None]
+        inside = np.zeros((r1 - r0, c1 - c0), bool)
         for h in hulls:
             inside |= _in_grown_hull(h, cc, rr, HULL_SLACK_PX)
-        return int(inside.sum()), (int(r0), int(r1), int(c0), int(c1))
+        return int(inside.sum()), (r0, r1, c0, c1)
 
     def outside_view(self, data: mujoco.MjData, pose: Pose, owner: str) -> bool:
         """Whether every corner of ``owner``'s geoms' oriented boxes is beyond one side of the
@@ -260,8 +266,9 @@ class EgoCamera:
 
 
 def _in_grown_hull(points: np.ndarray, x: np.ndarray, y: np.ndarray, grow: float) -> np.ndarray:
-    """Whether each (x, y) lies inside the convex hull of ``points`` (N, 2) grown by ``grow``
-    (every edge moved outward; for a degenerate hull, its bounding box grown)."""
+    """Whether each (x, y) (``x`` and ``y`` broadcast together) lies inside the convex hull
+    of ``points`` (N, 2) grown by ``grow`` (every edge moved outward; for a degenerate hull,
+    its bounding box grown)."""
     hull = cv2.convexHull(points.astype(np.float32)).reshape(-1, 2).astype(float)
     nxt = np.roll(hull, -1, axis=0)
     e = nxt - hull
@@ -270,8 +277,8 @@ def _in_grown_hull(points: np.ndarray, x: np.ndarray, y: np.ndarray, grow: float
     if len(hull) < 3 or abs(area2) < 1e-9 or (length < 1e-9).any():
         lo, hi = points.min(0) - grow, points.max(0) + grow
         return (x >= lo[0]) & (x <= hi[0]) & (y >= lo[1]) & (y <= hi[1])
-    inside = np.ones(x.shape, bool)
     sign = 1.0 if area2 > 0 else -1.0  # interior to the left of counter-clockwise edges
-    for (px, py), (ex, ey), n in zip(hull, e, length):
-        inside &= sign * (ex * (y - py) - ey * (x - px)) / n >= -grow
-    return inside
+    # every edge at once: (edges, *shape of x and y)
+    k = (slice(None),) + (None,) * np.broadcast(x, y).ndim
+    px, py, ex, ey, n = hull[:, 0][k], hull[:, 1][k], e[:, 0][k], e[:, 1][k], length[k]
+    return (sign * (ex * (y - py) - ey * (x - px)) / n >= -grow).all(0)
