@@ -42,9 +42,10 @@ from fallgen.nav.occupancy import (BOX_SIGNS, OccupancyGrid, geom_box_corners, o
                                    room_samples)
 from fallgen.physics.drop import _instance, replay
 from fallgen.physics.events import FallEvent
-from fallgen.vision.camera import (DRAWN_GROUPS, WIDTH, EgoCamera, View,
+from fallgen.vision.camera import (WIDTH, EgoCamera, View,
                                    world_category_labels)
 from fallgen.vision.gl import GLContext
+from fallgen.vision.sight import line_of_sight
 from fallgen.world.library import World
 from fallgen.world.scene import AgentBody, PlacedObject, build_scene
 
@@ -166,13 +167,15 @@ class EpisodeMaker:
                     seen[p] = camera.shows(data, p, VISIBLE_PIXELS)
                 return seen[p]
 
-            def line_of_sight(p: Pose) -> bool:
+            def clear_at(p: Pose) -> bool:
                 if (p.x, p.y) not in clear:
-                    clear[p.x, p.y] = _line_of_sight(scene, data, p, points, spec)
+                    clear[p.x, p.y] = line_of_sight(
+                        scene.model, data, scene.geom_owner,
+                        np.array([p.x, p.y, spec.camera_height_m]), points, (lo, hi))
                 return clear[p.x, p.y]
 
             try:
-                ex = expert(spawn, grid, centre, line_of_sight, visible, spec,
+                ex = expert(spawn, grid, centre, clear_at, visible, spec,
                             max_view_distance(hi - lo, VISIBLE_PIXELS))
             except NoPath as e:
                 raise Skip("no_path", str(e)) from None
@@ -267,24 +270,6 @@ def _target_box(scene, data) -> tuple[np.ndarray, np.ndarray]:
     pts = np.vstack([geom_box_corners(m, data, g) for g in range(m.ngeom)
                      if m.geom_bodyid[g] == b])
     return pts.min(0), pts.max(0)
-
-
-def _line_of_sight(scene, data, pose: Pose, points: np.ndarray, spec: AgentSpec) -> bool:
-    """Nothing but the target between the camera and one of the target's ``points`` (MuJoCo
-    ray casts on the geom groups the camera draws). One ray at a time, stopping at the first
-    clear one: ``mj_multiRay`` first bounds every geom as seen from the eye, which costs more
-    than the rays (the same hits; most candidate poses are blocked on every ray)."""
-    eye = np.array([pose.x, pose.y, spec.camera_height_m])
-    v = points - eye
-    dist = np.sqrt((v * v).sum(1))
-    unit = v / dist[:, None]
-    geomid = np.zeros(1, np.int32)
-    m, owner = scene.model, scene.geom_owner
-    for i, d in enumerate(dist.tolist()):
-        h = mujoco.mj_ray(m, data, eye, unit[i], DRAWN_GROUPS, 1, -1, geomid)
-        if h < 0 or h >= d or owner[int(geomid[0])] == "obj:target":
-            return True
-    return False
 
 
 def _with_contacts(event: FallEvent, contacts) -> FallEvent:

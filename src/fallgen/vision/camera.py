@@ -24,6 +24,7 @@ import numpy as np
 from fallgen.nav.agent import AgentSpec, Pose
 from fallgen.nav.occupancy import geom_box_corners
 from fallgen.vision.gl import GLContext, SceneFrames
+from fallgen.vision.sight import DRAWN_GROUPS
 from fallgen.world.scene import Scene
 
 WIDTH = HEIGHT = 300
@@ -36,8 +37,6 @@ HULL_SLACK_PX = 0.05
 #: threshold only this many pixels or more away from it (its pixels differ from the full
 #: image's where an edge passes through a pixel centre: 2 counts in 1530 differed, by 1).
 CROP_MARGIN_PX = 3
-#: The geom groups views draw (MuJoCo's default visualisation options): 0, 1 and 2.
-DRAWN_GROUPS = np.array(mujoco.MjvOption().geomgroup, np.uint8)
 
 
 @dataclass(frozen=True)
