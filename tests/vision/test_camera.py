@@ -85,10 +85,8 @@ def test_frustum_cull_never_hides_a_visible_object(cam_scene):
 def test_shared_context_gives_mujoco_renderers_pixels(world):
     """Scenes drawn one after another in one shared GL context, with the camera's small
     offscreen buffer and no shadow map, give exactly the RGB, depth and segmentation of
-    ``mujoco.Renderer`` on the model's default buffer (its own context per scene). Colour is
-    drawn multisampled and segmentation and depth single-sampled, in one buffer remade between
-    them: segmentation-only views first, then full views (colour, then depth and
-    segmentation) alternate the two."""
+    ``mujoco.Renderer`` on the model's default buffer (its own context per scene), for
+    segmentation-only views and for full views (colour, then depth and segmentation)."""
     from fallgen.vision.gl import GLContext
 
     v = world.variant(VARIANT)

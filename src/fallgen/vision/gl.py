@@ -44,13 +44,6 @@ class SceneFrames:
         context.make_current()
         self._con = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_150.value)
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._con)
-        # Segmentation and depth are drawn without multisampling (MuJoCo turns it off for
-        # segment colours), so they are the same pixels in a single-sampled buffer, which costs
-        # a third less on a CPU renderer: the buffer is single-sampled but for colour views,
-        # which get the model's multisampling (`_use_samples` in `_draw`). The context is made
-        # with it: only then does it have the buffers that resolve the samples.
-        self._samples = int(self._con.offSamples)
-        self._use_samples(0)
         self._con.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
         self._scene = mujoco.MjvScene(model=model, maxgeom=max_geom)
         self._option = mujoco.MjvOption()
@@ -63,16 +56,6 @@ class SceneFrames:
             self._con.free()
             self._con = None
 
-    def _use_samples(self, samples: int) -> None:
-        """Remake the offscreen buffer with ``samples`` samples per pixel, unless it has them
-        (``mjr_resizeOffscreen`` remakes it only for a new size: the width is cleared first)."""
-        con = self._con
-        if con.offSamples != samples:
-            self.context.make_current()
-            con.offSamples = samples
-            con.offWidth = 0
-            mujoco.mjr_resizeOffscreen(self.size, self.size, con)
-
     def _draw(self, data: mujoco.MjData, camera: mujoco.MjvCamera, ids: bool,
               crop: tuple[int, int, int, int] | None = None) -> mujoco.MjrRect:
         """Draw the view; with ``crop`` = (row0, row1, col0, col1) only that part of the
@@ -81,7 +64,6 @@ class SceneFrames:
                                mujoco.mjtCatBit.mjCAT_ALL.value, self._scene)
         if self._scene.ngeom >= self._scene.maxgeom:  # geoms were left out
             raise RuntimeError(f"the scene holds only {self._scene.maxgeom} geoms")
-        self._use_samples(0 if ids else self._samples)
         flags = self._scene.flags
         # depth and segmentation are drawn with segment colours (as mujoco.Renderer does: the
         # depth is more accurate far away)
