@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from fallgen.nav.agent import AgentSpec
-from fallgen.nav.occupancy import BOX_SIGNS, geom_box_corners
+from fallgen.nav.occupancy import BOX_SIGNS
+from fallgen.pipeline.episode import _target_box
 from fallgen.vision import sight
 from fallgen.vision.sight import DRAWN_GROUPS, box_entries, line_of_sight
 from fallgen.world.scene import PlacedObject, build_scene
@@ -81,10 +82,7 @@ def test_verdict_is_that_of_every_ray(world, variant_id, monkeypatch):
         d = scene.data()
         mujoco.mj_forward(scene.model, d)
         m = scene.model
-        body = scene.object_body["target"]
-        corners = np.vstack([geom_box_corners(m, d, g) for g in range(m.ngeom)
-                             if m.geom_bodyid[g] == body])
-        lo, hi = corners.min(0), corners.max(0)
+        lo, hi = _target_box(scene, d)
         centre = (lo + hi) / 2
         points = np.vstack([centre, centre + 0.75 * BOX_SIGNS * (hi - lo) / 2])
         for _ in range(40):
