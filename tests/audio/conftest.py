@@ -36,10 +36,7 @@ def _drop_event(world, category, variant, material, height, steps=900, zone_kind
     m, d = scene.model, scene.data()
     mujoco.mj_forward(m, d)
     rec = ContactRecorder(m, scene.object_body["target"], scene.geom_owner, scene.geom_material)
-    for _ in range(steps):
-        rec.before_step(d)
-        mujoco.mj_step(m, d)
-        rec.after_step(d)
+    rec.step(d, steps)
     return FallEvent(
         event_id="test", room_variant=VARIANT, room_kind=v.kind, zone=z.id, zone_kind=z.kind,
         trial=0, root_seed=0, target=ObjectSpec(category, variant, material, 1.0),

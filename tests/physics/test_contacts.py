@@ -33,9 +33,7 @@ def _run(world, cat, z0, *, qvel=None, quat=(1, 0, 0, 0), steps=1200):
     rec = ContactRecorder(m, scene.object_body["t"], scene.geom_owner, scene.geom_material)
     vz = []
     for _ in range(steps):
-        rec.before_step(d)
-        mujoco.mj_step(m, d)
-        rec.after_step(d)
+        rec.step(d)
         vz.append(d.qvel[2])
     return inst, rec.finish(), np.array(vz), m.opt.timestep
 

@@ -10,7 +10,6 @@ perturb the target's trajectory at the 1e-9 level).
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import zlib
 from dataclasses import dataclass
@@ -22,7 +21,7 @@ from fallgen.config import RehearseConfig
 from fallgen.physics.contacts import ContactEvent, ContactRecorder
 from fallgen.physics.events import FallEvent, ObjectSpec, Placement
 from fallgen.physics.settle import (SettleCriteria, SettleResult, mujoco_warnings,
-                                   record_steps, simulate_until_settled)
+                                   simulate_until_settled)
 from fallgen.world.library import World
 from fallgen.world.objects import ObjectInstance
 from fallgen.world.rooms import RoomVariant, Zone
@@ -169,59 +168,37 @@ def _scene_objects(world: World, target: ObjectInstance, start_pos, start_quat,
     return objs
 
 
-#: Steps run in C between settle checks in the first (fast) pass.
+#: Steps run in C between settle checks (and between the distractors' calm checks).
 CHECK_EVERY_STEPS = 10
 
 
 def _simulate(world: World, variant: RoomVariant, objs: list[PlacedObject], linvel, angvel,
               criteria: SettleCriteria, max_steps: int | None = None,
-              keep=lambda res, com: True, agent: AgentBody | None = None,
-              floor_z: float | None = None
+              agent: AgentBody | None = None, floor_z: float | None = None
               ) -> tuple[SettleResult, list[ContactEvent], np.ndarray, float, bool, Scene]:
-    """Simulate the target's fall in two passes over one compiled model: a fast pass in C
-    chunks decides when (and whether) it settles; if it is worth keeping (``keep(result,
-    centre of mass)``), a second pass from the same initial state records contacts step by step
-    for exactly as many steps and must end in the same state bit for bit. ``max_steps`` (a
-    replay) skips the first pass. ``floor_z``: the first pass stops as soon as the centre of
-    mass can no longer climb back to that height (:func:`_below_for_good`)."""
+    """Simulate the target's fall, recording its contacts at every step (the recorder makes
+    the steps, ``CHECK_EVERY_STEPS`` between settle checks), until it settles, times out or
+    (``floor_z``) its centre of mass can no longer climb back to that height
+    (:func:`_below_for_good`). ``max_steps`` (a replay): exactly that many steps. A start that
+    overlaps another body is not simulated."""
     scene = build_scene(variant, world.materials, objs, agent=agent, settings=PHYSICS)
     m = scene.model
     b = scene.object_body["target"]
     vadr = m.jnt_dofadr[m.body_jntadr[b]]
-
-    def fresh() -> mujoco.MjData:
-        d = mujoco.MjData(m)
-        d.qvel[vadr:vadr + 3] = linvel
-        d.qvel[vadr + 3:vadr + 6] = angvel
-        mujoco.mj_forward(m, d)
-        return d
-
-    d = fresh()
+    d = mujoco.MjData(m)
+    d.qvel[vadr:vadr + 3] = linvel
+    d.qvel[vadr + 3:vadr + 6] = angvel
+    mujoco.mj_forward(m, d)
     overlap = any(
         (m.geom_bodyid[d.contact[i].geom1] == b) != (m.geom_bodyid[d.contact[i].geom2] == b)
         and d.contact[i].dist < -1e-3 for i in range(d.ncon))
-    first = None
     if max_steps is None and overlap:  # rejected whatever it does: not simulated
-        first = simulate_until_settled(m, d, b, criteria, max_steps=0)
-        return first, [], d.xipos[b].copy(), float(m.body_mass[b]), overlap, scene
-    if max_steps is None:
-        first = simulate_until_settled(
-            m, d, b, criteria, chunk=CHECK_EVERY_STEPS,
-            give_up=None if floor_z is None else _below_for_good(m, b, floor_z))
-        if not first.settled or not keep(first, d.xipos[b]):
-            return first, [], d.xipos[b].copy(), float(m.body_mass[b]), overlap, scene
-        max_steps = first.steps
-        d = fresh()
+        res = simulate_until_settled(m, d, b, criteria, max_steps=0)
+        return res, [], d.xipos[b].copy(), float(m.body_mass[b]), overlap, scene
     rec = ContactRecorder(m, b, scene.geom_owner, scene.geom_material)
-    if first is None:  # a replay: its own verdict
-        res = simulate_until_settled(m, d, b, criteria, recorder=rec, max_steps=max_steps)
-    else:
-        pos, quat, xy_min, xy_max = record_steps(m, d, b, rec, max_steps)
-        if not (np.array_equal(first.pos, pos) and np.array_equal(first.quat, quat)):
-            raise RuntimeError("the recording pass diverged from the first pass: MuJoCo is not "
-                               "deterministic here")
-        # the first pass's verdict, with the swept area seen at every step of the second
-        res = dataclasses.replace(first, xy_min=xy_min, xy_max=xy_max)
+    res = simulate_until_settled(
+        m, d, b, criteria, recorder=rec, max_steps=max_steps, chunk=CHECK_EVERY_STEPS,
+        give_up=None if floor_z is None else _below_for_good(m, b, floor_z))
     return res, rec.finish(), d.xipos[b].copy(), float(m.body_mass[b]), overlap, scene
 
 
@@ -284,8 +261,7 @@ def run_trial(world: World, variant: RoomVariant, zone: Zone, trial: int,
     start = (float(x), float(y), z)
     objs = _scene_objects(world, target, start, quat, distractors, occluders)
     res, contacts, com, mass, overlap, _ = _simulate(
-        world, variant, objs, linvel, angvel, cfg.settle,
-        keep=lambda r, c: _judge(variant, zone, r, c) == "kept", floor_z=zone.volume.zmin)
+        world, variant, objs, linvel, angvel, cfg.settle, floor_z=zone.volume.zmin)
     if overlap:
         return TrialOutcome("start_overlap", None, cid)
     reason = _judge(variant, zone, res, com)

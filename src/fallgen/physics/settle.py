@@ -41,7 +41,7 @@ class SettleResult:
     warnings: dict[str, int]
     steps: int = 0  # steps simulated
     # the body origin's lowest and highest x, y over the start and the states checked (every
-    # step when stepping one by one): with the body's bounding radius, the area the fall swept
+    # step when recorded): with the body's bounding radius, the area the fall swept
     xy_min: tuple[float, float] = (math.inf, math.inf)
     xy_max: tuple[float, float] = (-math.inf, -math.inf)
     gave_up: bool = False  # stopped early because ``give_up`` said the trial was lost
@@ -82,19 +82,17 @@ def simulate_until_settled(model: mujoco.MjModel, data: mujoco.MjData, body_id: 
                            ) -> SettleResult:
     """Step ``data`` until body ``body_id`` (with a free joint) settles or times out.
 
-    ``recorder`` (e.g. a :class:`~fallgen.physics.contacts.ContactRecorder`) gets
-    ``before_step``/``after_step`` around every step. ``max_steps`` replays exactly that many
-    steps (the settle test still runs but does not stop the loop). Without a recorder, ``chunk``
-    steps run in C between checks (the settle test, NaN and warnings are then checked every
-    ``chunk`` steps; the trajectory is the same as stepping one by one). ``give_up(data)``,
-    asked at every pose sample of a run that is not a replay, stops a trial that can no longer
-    be kept (``gave_up``; not settled).
+    ``chunk`` steps run in C between checks (the settle test, NaN and warnings are then checked
+    every ``chunk`` steps; the trajectory is the same as stepping one by one). A ``recorder``
+    (:class:`~fallgen.physics.contacts.ContactRecorder`) makes the steps and records every one
+    of them; the sweep (``xy_min``, ``xy_max``) is then that of every step, else that of the
+    states checked. ``max_steps`` replays exactly that many steps (the settle test still runs
+    but does not stop the loop). ``give_up(data)``, asked at every pose sample of a run that is
+    not a replay, stops a trial that can no longer be kept (``gave_up``; not settled).
     """
     jnt = model.body_jntadr[body_id]
     qadr, vadr = model.jnt_qposadr[jnt], model.jnt_dofadr[jnt]
     dt = model.opt.timestep
-    if recorder is not None:
-        chunk = 1
     hold = max(1, int(math.ceil(criteria.hold_s / (dt * chunk))))
     replay = max_steps is not None
     if max_steps is None:
@@ -104,8 +102,8 @@ def simulate_until_settled(model: mujoco.MjModel, data: mujoco.MjData, body_id: 
     x_lo = x_hi = float(data.qpos[qadr])
     y_lo = y_hi = float(data.qpos[qadr + 1])
     steps = 0
-    # Poses are sampled every POSE_EVERY_STEPS steps whatever the chunk, so that a chunked
-    # first pass and a step-by-step replay reach the same verdict at the same step.
+    # Poses are sampled every POSE_EVERY_STEPS steps whatever the chunk, so that runs in
+    # different chunks reach the same "still in place" verdict at the same step.
     window = max(1, int(math.ceil(criteria.pose_window_s / (dt * POSE_EVERY_STEPS))))
     poses: deque = deque(maxlen=window + 1)
     # views into data, read as Python floats after every step or chunk (NumPy scalar
@@ -116,9 +114,7 @@ def simulate_until_settled(model: mujoco.MjModel, data: mujoco.MjData, body_id: 
     while steps < max_steps:
         n = min(chunk, max_steps - steps)
         if recorder is not None:
-            recorder.before_step(data)
-            mujoco.mj_step(model, data)
-            recorder.after_step(data)
+            recorder.step(data, n)
         else:
             mujoco.mj_step(model, data, nstep=n)
         steps += n
@@ -147,6 +143,8 @@ def simulate_until_settled(model: mujoco.MjModel, data: mujoco.MjData, body_id: 
                 settled_at = (steps - window * POSE_EVERY_STEPS) * dt
             if settled_at is not None and not replay:
                 break
+    if recorder is not None:
+        (x_lo, y_lo), (x_hi, y_hi) = recorder.sweep
     return SettleResult(
         settled=settled_at is not None and not unstable and not gave_up,
         time_s=settled_at if settled_at is not None else data.time,
@@ -161,32 +159,3 @@ def simulate_until_settled(model: mujoco.MjModel, data: mujoco.MjData, body_id: 
         xy_max=(x_hi, y_hi),
         gave_up=gave_up,
     )
-
-
-def record_steps(model: mujoco.MjModel, data: mujoco.MjData, body_id: int, recorder,
-                 steps: int) -> tuple[np.ndarray, np.ndarray, tuple[float, float],
-                                       tuple[float, float]]:
-    """Step ``data`` exactly ``steps`` times, one by one, with ``recorder`` around every step,
-    and nothing else: the recording pass of a fall whose verdict a first pass already gave
-    (:func:`simulate_until_settled` with ``chunk``). Returns the body's final position and
-    orientation and the lowest and highest x, y of its origin over the start and every step
-    (``SettleResult.xy_min`` / ``xy_max``)."""
-    qadr = model.jnt_qposadr[model.body_jntadr[body_id]]
-    qpos = data.qpos
-    x_lo = x_hi = float(qpos[qadr])
-    y_lo = y_hi = float(qpos[qadr + 1])
-    before, after, step = recorder.before_step, recorder.after_step, mujoco.mj_step
-    for _ in range(steps):
-        before(data)
-        step(model, data)
-        after(data)
-        x, y = float(qpos[qadr]), float(qpos[qadr + 1])
-        if x < x_lo:
-            x_lo = x
-        elif x > x_hi:
-            x_hi = x
-        if y < y_lo:
-            y_lo = y
-        elif y > y_hi:
-            y_hi = y
-    return qpos[qadr:qadr + 3].copy(), qpos[qadr + 3:qadr + 7].copy(), (x_lo, y_lo), (x_hi, y_hi)
