@@ -27,6 +27,7 @@ from fallgen.physics import mjraw
 
 KINDS = ("impact", "scrape", "roll")
 
+
 @dataclass(frozen=True)
 class ContactParams:
     impact_speed_mps: float = 0.05  # slower approaches are resting contact, not impacts
