@@ -3,8 +3,6 @@ separate --shard-index runs finished by `fallgen finalize`."""
 
 from __future__ import annotations
 
-import collections
-import os
 import shutil
 
 import pytest
@@ -37,37 +35,6 @@ def test_local_pool_runs_init_once_per_worker_and_keeps_order():
     assert list(parallel_map(_square, [1, 2, 3], _set_offset, (10,), workers=2)) == [11, 14, 19]
     with pytest.raises(ValueError, match="unknown executor"):
         list(parallel_map(_square, [1], _set_offset, (0,), 1, executor="dask"))
-
-
-_INITS = {"n": 0}
-
-
-def _count_init() -> None:
-    _INITS["n"] += 1
-
-
-def _who(x: int) -> tuple[int, int, int]:
-    """The unit, the worker's pid and how many times init ran in it."""
-    if x < 0:
-        raise KeyError(f"unit {x}")
-    return x, os.getpid(), _INITS["n"]
-
-
-def test_local_pool_retires_workers_after_units_per_worker():
-    out = list(parallel_map(_who, list(range(7)), _count_init, (), workers=2,
-                            units_per_worker=2))
-    assert [u for u, _, _ in out] == list(range(7))  # in unit order
-    assert all(n == 1 for _, _, n in out)  # every worker process ran init once
-    per_pid = collections.Counter(pid for _, pid, _ in out)
-    assert max(per_pid.values()) <= 2 and len(per_pid) >= 4
-    assert os.getpid() not in per_pid
-
-
-def test_recycling_pool_raises_a_units_error_and_refuses_zero():
-    with pytest.raises(KeyError, match="unit -1"):
-        list(parallel_map(_who, [0, 1, -1, 3], _count_init, (), workers=2, units_per_worker=1))
-    with pytest.raises(ValueError, match="units_per_worker"):
-        list(parallel_map(_who, [0], _count_init, (), workers=1, units_per_worker=0))
 
 
 @pytest.mark.xdist_group("tiny_build")

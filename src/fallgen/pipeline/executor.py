@@ -20,9 +20,8 @@ from __future__ import annotations
 
 import multiprocessing
 import os
-from collections import deque
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import ProcessPoolExecutor
 from typing import Any, TypeVar
 
 U = TypeVar("U")
@@ -46,68 +45,18 @@ def select_units(units: Sequence[U], index: int | None, count: int | None) -> li
 
 def parallel_map(work: Callable[[U], Any], units: Sequence[U], init: Callable[..., None],
                  init_args: tuple, workers: int, executor: str = "local",
-                 ray_address: str | None = None, units_per_worker: int | None = None
-                 ) -> Iterator[Any]:
+                 ray_address: str | None = None) -> Iterator[Any]:
     """``work(unit)`` for every unit in worker processes that each ran ``init(*init_args)``
     once; yields results as units finish (``local``: in unit order). ``work`` and ``init``
-    must be module-level functions. ``units_per_worker``: a worker process is replaced by a
-    fresh one (which runs ``init`` again) after that many units, which bounds what a long
-    run's heap fragmentation costs (None: workers live for the whole map)."""
-    if units_per_worker is not None and units_per_worker < 1:
-        raise ValueError(f"units_per_worker must be at least 1 (got {units_per_worker})")
+    must be module-level functions."""
     if executor == "local":
-        if units_per_worker is None or units_per_worker >= len(units):
-            with _pool(max(1, workers), init, init_args) as ex:
-                yield from ex.map(work, units)
-        else:
-            yield from _recycling_map(work, units, init, init_args, max(1, workers),
-                                      units_per_worker)
+        with ProcessPoolExecutor(max(1, workers), mp_context=multiprocessing.get_context("spawn"),
+                                 initializer=_local_init, initargs=(init, init_args)) as ex:
+            yield from ex.map(work, units)
     elif executor == "ray":
-        yield from _ray_map(work, units, init, init_args, workers, ray_address,
-                            units_per_worker)
+        yield from _ray_map(work, units, init, init_args, workers, ray_address)
     else:
         raise ValueError(f"unknown executor {executor!r} (one of {', '.join(EXECUTORS)})")
-
-
-def _pool(workers: int, init: Callable[..., None], init_args: tuple) -> ProcessPoolExecutor:
-    return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
-                               initializer=_local_init, initargs=(init, init_args))
-
-
-def _recycling_map(work: Callable[[U], Any], units: Sequence[U], init: Callable[..., None],
-                   init_args: tuple, workers: int, per_worker: int) -> Iterator[Any]:
-    """:func:`parallel_map` with each worker process retired after ``per_worker`` units: one
-    single-process pool per worker slot, replaced when it has made its share, units handed
-    to whichever slot is free, results yielded in unit order. (``ProcessPoolExecutor``'s own
-    ``max_tasks_per_child`` can deadlock with a backlog before Python 3.14: CPython issue
-    115634.)"""
-    todo = deque(enumerate(units))
-    slots: list[dict] = []  # per slot: its pool, the units it made, the unit (index) it makes
-    made: dict[int, Any] = {}
-    first = 0  # the next result to yield
-    try:
-        for _ in range(min(workers, len(units))):
-            slots.append({"pool": _pool(1, init, init_args), "made": 0, "job": None})
-        while first < len(units):
-            for s in slots:
-                if s["job"] is None and todo:
-                    if s["made"] >= per_worker:
-                        s["pool"].shutdown()
-                        s["pool"], s["made"] = _pool(1, init, init_args), 0
-                    i, unit = todo.popleft()
-                    s["job"], s["made"] = (i, s["pool"].submit(work, unit)), s["made"] + 1
-            busy = [s["job"][1] for s in slots if s["job"] is not None]
-            done, _ = wait(busy, return_when=FIRST_COMPLETED)
-            for s in slots:
-                if s["job"] is not None and s["job"][1] in done:
-                    made[s["job"][0]] = s["job"][1].result()  # a unit's error ends the map
-                    s["job"] = None
-            while first in made:
-                yield made.pop(first)
-                first += 1
-    finally:
-        for s in slots:
-            s["pool"].shutdown(cancel_futures=True)
 
 
 def _local_init(init: Callable[..., None], init_args: tuple) -> None:
@@ -126,8 +75,7 @@ def _ray_task(init: Callable[..., None], init_args: tuple, work: Callable, unit:
     return work(unit)
 
 
-def _ray_map(work, units, init, init_args, workers, address, units_per_worker=None
-             ) -> Iterator[Any]:
+def _ray_map(work, units, init, init_args, workers, address) -> Iterator[Any]:
     try:
         import ray
     except ImportError:
@@ -141,10 +89,7 @@ def _ray_map(work, units, init, init_args, workers, address, units_per_worker=No
         ray.init(address=address, **kw)
         started = True
     try:
-        opts: dict[str, Any] = {"num_cpus": 1, "max_retries": 2}
-        if units_per_worker is not None:  # Ray retires a worker after that many of these tasks
-            opts["max_calls"] = units_per_worker
-        task = ray.remote(**opts)(_ray_task)
+        task = ray.remote(num_cpus=1, max_retries=2)(_ray_task)
         pending = [task.remote(init, init_args, work, u) for u in units]
         while pending:
             done, pending = ray.wait(pending, num_returns=1)

@@ -202,13 +202,6 @@ _MALLOC_TRIM = _malloc_trim()
 TRIM_ABOVE_MB = 896
 
 
-#: Shards a generation worker process makes before a fresh one takes its place. A worker's
-#: heap fragments shard by shard: the memory it keeps after a trim crept up until, ~10 shards
-#: in, it trimmed before nearly every episode and faulted the pages in again (a full build:
-#: 59 M page faults, ~170 s of system time). A fresh process starts in ~3 s.
-SHARDS_PER_WORKER = 4
-
-
 _PAGE = os.sysconf("SC_PAGE_SIZE") if hasattr(os, "sysconf") else 4096
 
 
@@ -361,7 +354,7 @@ def generate(world: World, cfg: BuildConfig, out: Path | None = None, workers: i
         made = itertools.chain(done, parallel_map(_work, [(j, b.pools) for j in todo], _init,
                                                   (str(world.root), cfg, str(out)),
                                                   min(workers, len(todo)), executor,
-                                                  ray_address, SHARDS_PER_WORKER))
+                                                  ray_address))
     for r in made:
         results.append(r)
         if progress:
