@@ -270,7 +270,7 @@ def _init(root: str, cfg: BuildConfig, out: str) -> None:
 
 def _make_job(world: World, maker: EpisodeMaker, cfg: BuildConfig, job: ShardJob,
               pools: dict[tuple[str, str], list[str]], out: Path,
-              trim: Callable[[], bool] | None = None) -> ShardResult:
+              trim: Callable[[], bool]) -> ShardResult:
     """One shard, loading only the events it can use (all of a full build's events with
     their contacts would take ~700 MB in every worker)."""
     events = {e.event_id: e for e in load_events(cfg, out, job_event_ids(job, pools))}
