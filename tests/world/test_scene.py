@@ -8,7 +8,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from fallgen.world.scene import AgentBody, PlacedObject, build_scene, to_mjcf
+from fallgen.world import scene as scene_module
+from fallgen.world.scene import (AgentBody, PhysicsSettings, PlacedObject, build_scene, room_spec,
+                                 to_mjcf)
 
 
 def _all(world):
@@ -30,6 +32,36 @@ def test_all_variants_compile(world):
         assert len(scene.geom_owner) == m.ngeom
         for mat in scene.geom_material:
             world.materials.object(mat)
+
+
+def _saved(m: mujoco.MjModel) -> bytes:
+    buf = np.zeros(mujoco.mj_sizeModel(m), np.uint8)
+    mujoco.mj_saveModel(m, None, buf)
+    return buf.tobytes()
+
+
+def test_kept_room_spec_makes_the_same_model_and_is_never_changed(world, monkeypatch):
+    v = world.variant("kitchen_galley-l1-m1")
+    lib = world.categories
+    inst = lib.instance("fork", lib["fork"].variants[0].name,
+                        next(iter(lib["fork"].variants[0].materials)))
+    objs = [PlacedObject("target", inst, (1.5, 1.5, 1.0)),
+            PlacedObject("d0", inst, (1.0, 1.2, 0.5), free=False)]
+    settings = PhysicsSettings(visual_meshes=False)
+    first = build_scene(v, world.materials, objs, AgentBody(3.0, 1.8, 0.3), settings)
+    room, _ = room_spec(v, world.materials, settings)
+    n_geoms = len(room.geoms)
+    again = build_scene(v, world.materials, objs, AgentBody(3.0, 1.8, 0.3), settings)
+    assert room_spec(v, world.materials, settings)[0] is room  # kept, and not grown by users
+    assert len(room.geoms) == n_geoms == first.model.ngeom - first.model.body_geomnum[1:].sum()
+    monkeypatch.setattr(scene_module, "_ROOM_SPECS", type(scene_module._ROOM_SPECS)())
+    fresh = build_scene(v, world.materials, objs, AgentBody(3.0, 1.8, 0.3), settings)
+    assert room_spec(v, world.materials, settings)[0] is not room
+    assert _saved(first.model) == _saved(again.model) == _saved(fresh.model)
+    assert first.geom_owner == fresh.geom_owner and first.geom_material == fresh.geom_material
+    # another settings object is another room (options differ)
+    assert room_spec(v, world.materials, PhysicsSettings())[0] is not \
+        room_spec(v, world.materials, settings)[0]
 
 
 def test_labels_follow_surfaces_and_furniture(world):

@@ -16,6 +16,7 @@ collision geoms ``obj:<name>/cNN`` (group 3, hidden); the agent is body ``agent`
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -126,8 +127,62 @@ def build_spec(
     agent: AgentBody | None = None,
     settings: PhysicsSettings = PhysicsSettings(),
 ) -> tuple[mujoco.MjSpec, dict[str, tuple[str, str]]]:
-    """The scene's MjSpec and, per geom name, its (owner, material)."""
+    """The scene's MjSpec and, per geom name, its (owner, material). The room's part (options,
+    shell, lights, furniture) is built once per variant and copied (:func:`room_spec`)."""
+    room, room_info = room_spec(variant, mats, settings)
+    spec = room.copy()
+    info = dict(room_info)
+    for obj in objects:
+        _add_object(spec, mats, obj, settings, info)
+
+    if agent is not None:
+        body = spec.worldbody.add_body()
+        body.name = "agent"
+        body.pos = [agent.x, agent.y, 0.0]
+        body.quat = [np.cos(agent.yaw / 2), 0.0, 0.0, np.sin(agent.yaw / 2)]
+        g = body.add_geom()
+        g.name = "agent/body"
+        g.type = mujoco.mjtGeom.mjGEOM_CYLINDER
+        g.size = [agent.radius_m, agent.height_m / 2, 0.0]
+        g.pos = [0.0, 0.0, agent.height_m / 2 + 0.005]
+        g.rgba = [0.2, 0.2, 0.22, 1.0]
+        _set_contact(g, mats, "plastic_hard")
+        info[g.name] = ("agent", "plastic_hard")
+    return spec, info
+
+
+#: Room specs kept (:func:`room_spec`): a generation shard visits every variant of its kind.
+ROOM_SPECS_KEPT = 64
+_ROOM_SPECS: OrderedDict[tuple, tuple[RoomVariant, MaterialLibrary, mujoco.MjSpec, dict]] = \
+    OrderedDict()
+
+
+def room_spec(variant: RoomVariant, mats: MaterialLibrary,
+              settings: PhysicsSettings = PhysicsSettings()
+              ) -> tuple[mujoco.MjSpec, dict[str, tuple[str, str]]]:
+    """The room's own spec (options, shell, lights, furniture; no objects) and its geoms'
+    (owner, material), made once per (variant, materials, settings) object and kept (the
+    least recently used of more than ``ROOM_SPECS_KEPT`` dropped). Callers copy it, never
+    change it: building the ~100 geoms in Python costs ~1 ms, a copy ~0.07 ms, and the
+    compiled model is the same, byte for byte."""
+    key = (id(variant), id(mats), settings)
+    hit = _ROOM_SPECS.get(key)
+    if hit is not None and hit[0] is variant and hit[1] is mats:
+        _ROOM_SPECS.move_to_end(key)
+        return hit[2], hit[3]
+    spec, info = _build_room_spec(variant, mats, settings)
+    _ROOM_SPECS[key] = (variant, mats, spec, info)  # the objects held keep their ids unique
+    while len(_ROOM_SPECS) > ROOM_SPECS_KEPT:
+        _ROOM_SPECS.popitem(last=False)
+    return spec, info
+
+
+def _build_room_spec(variant: RoomVariant, mats: MaterialLibrary, settings: PhysicsSettings
+                     ) -> tuple[mujoco.MjSpec, dict[str, tuple[str, str]]]:
     spec = mujoco.MjSpec()
+    # one thread: MuJoCo's threaded compile makes the same model and costs more (a worker per
+    # core already keeps the cores busy): 18.8 ms against 24.1 ms for a room with 3 objects
+    spec.compiler.usethread = False
     spec.modelname = variant.id
     spec.compiler.degree = False
     opt = spec.option
@@ -189,23 +244,6 @@ def build_spec(
         g.rgba = _rgba(part.rgba or mats.object(part.material).rgba)
         _set_contact(g, mats, part.material)
         info[g.name] = (item.id, part.material)
-
-    for obj in objects:
-        _add_object(spec, mats, obj, settings, info)
-
-    if agent is not None:
-        body = wb.add_body()
-        body.name = "agent"
-        body.pos = [agent.x, agent.y, 0.0]
-        body.quat = [np.cos(agent.yaw / 2), 0.0, 0.0, np.sin(agent.yaw / 2)]
-        g = body.add_geom()
-        g.name = "agent/body"
-        g.type = mujoco.mjtGeom.mjGEOM_CYLINDER
-        g.size = [agent.radius_m, agent.height_m / 2, 0.0]
-        g.pos = [0.0, 0.0, agent.height_m / 2 + 0.005]
-        g.rgba = [0.2, 0.2, 0.22, 1.0]
-        _set_contact(g, mats, "plastic_hard")
-        info[g.name] = ("agent", "plastic_hard")
     return spec, info
 
 
