@@ -63,15 +63,18 @@ def geom_box_corners(model: mujoco.MjModel, data: mujoco.MjData, g: int) -> np.n
 
 def _footprints(scene: Scene, data: mujoco.MjData, low: float, high: float,
                 keep) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """(hull equations, xy min, xy max) of every collision geom in the band that ``keep(owner)``."""
+    """(hull equations, xy min, xy max) of every collision geom (and of the visual geoms of a
+    body that has none) in the band whose owner ``keep(owner)``."""
     m = scene.model
+    solid = (m.geom_contype != 0) | (m.geom_conaffinity != 0)
+    with_twins = set(m.geom_bodyid[solid].tolist())
     out = []
     for g in range(m.ngeom):
         owner = scene.geom_owner[g]
         if owner in ("floor", "ceiling") or not keep(owner):
             continue
-        if m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0:
-            continue  # visual-only geoms: their collision twins count
+        if not solid[g] and m.geom_bodyid[g] in with_twins:
+            continue  # a visual geom whose body has collision geoms: those count
         corners = geom_box_corners(m, data, g)
         if corners[:, 2].max() < low or corners[:, 2].min() > high:
             continue

@@ -47,7 +47,7 @@ from fallgen.vision.camera import (WIDTH, EgoCamera, View,
 from fallgen.vision.gl import GLContext
 from fallgen.vision.sight import line_of_sight
 from fallgen.world.library import World
-from fallgen.world.scene import AgentBody, PlacedObject, build_scene
+from fallgen.world.scene import VIEW, AgentBody, PlacedObject, build_scene
 
 MIN_SPAWN_DISTANCE_M = 2.0
 SPAWN_CLEARANCE_M = 0.05
@@ -130,7 +130,7 @@ class EpisodeMaker:
                     for k, p in enumerate(event.distractors)]
         settled += [PlacedObject(f"o{k}", _instance(world, p.object), p.pos, p.quat, free=False)
                     for k, p in enumerate(event.occluders)]
-        scene = build_scene(variant, world.materials, settled)
+        scene = build_scene(variant, world.materials, settled, settings=VIEW)
         data = scene.data()
         mujoco.mj_forward(scene.model, data)
         cats = {o.name: o.instance.category for o in settled}

@@ -58,12 +58,22 @@ class PhysicsSettings:
     #: Visual (render) meshes; physics-only scenes (rehearsal, replay) leave them out, which
     #: changes no physics (they do not collide) but the geom ids.
     visual_meshes: bool = True
+    #: The objects' convex collision pieces; a scene that is only looked at (an episode's
+    #: settled room: its views, lines of sight and occupancy) leaves them out: compiling them
+    #: and uploading them to the renderer was ~40 % of making such a scene.
+    collision_meshes: bool = True
 
     def __post_init__(self) -> None:
+        if not (self.visual_meshes or self.collision_meshes):
+            raise ValueError("objects need visual or collision meshes (or both)")
         if not 0 < self.timestep_s <= 0.01:
             raise ValueError(f"timestep_s {self.timestep_s} out of range (0, 0.01]")
         if self.object_condim not in (1, 3, 4, 6):
             raise ValueError("object_condim must be 1, 3, 4 or 6")
+
+
+#: An episode's settled room, only looked at (rendered, ray cast, rasterised): no collision pieces.
+VIEW = PhysicsSettings(collision_meshes=False)
 
 
 @dataclass(frozen=True)
@@ -280,7 +290,7 @@ def _add_object(spec: mujoco.MjSpec, mats: MaterialLibrary, obj: PlacedObject,
         g.group = VISUAL_GROUP
         g.rgba = _rgba(inst.material.rgba)
         info[g.name] = (prefix, inst.material.name)
-    for k, piece in enumerate(geo.collision):
+    for k, piece in enumerate(geo.collision if settings.collision_meshes else ()):
         m = spec.add_mesh()
         m.name = f"{prefix}/c{k:02d}"
         m.uservert = (piece * s).ravel().tolist()
