@@ -77,6 +77,41 @@ def test_room_layer_plus_objects_is_the_whole_grid(world):
         assert (whole.occupied & ~bare.occupied).any()  # the objects did add cells
 
 
+def test_objects_of_a_view_scene_occupy_their_visual_boxes(world):
+    """An episode's settled room (VIEW: no collision pieces) rasterises each object's visual
+    geom instead of its collision pieces: the same cells or a little more (a jug's box)."""
+    import mujoco
+
+    from fallgen.world.scene import VIEW, PlacedObject
+
+    rng = np.random.default_rng(1)
+    v = world.variant("kitchen_galley-l1-m1")
+    for cat, variant, material in (("toaster", "steel", "metal"), ("jug", None, None)):
+        c = world.categories[cat]
+        variant = variant or c.variants[0].name
+        material = material or next(iter(c.variants[0].materials))
+        objs = [PlacedObject(f"d{k}", world.categories.instance(cat, variant, material),
+                             (float(rng.uniform(0.5, v.size_m[0] - 0.5)),
+                              float(rng.uniform(0.5, v.size_m[1] - 0.5)), 0.2), free=False)
+                for k in range(4)]
+        grids = []
+        for settings in (VIEW, None):
+            scene = build_scene(v, world.materials, objs, **({"settings": settings}
+                                                             if settings else {}))
+            names = [scene.model.geom(g).name for g in range(scene.model.ngeom)]
+            assert any("/c" in n for n in names if n.startswith("obj:")) == (settings is None)
+            d = scene.data()
+            mujoco.mj_forward(scene.model, d)
+            grids.append(occupancy(scene, d, band_high_m=1.0).occupied)
+        bare = occupancy(scene, d, band_high_m=1.0, skip=("agent", "obj:")).occupied
+        view, full = grids
+        objects_view, objects_full = view & ~bare, full & ~bare
+        assert objects_view.sum() > 0 and objects_full.sum() > 0
+        # the visual box holds the pieces: every cell they cover, and at most one more each
+        assert not (objects_full & ~objects_view).any(), cat
+        assert (objects_view & ~objects_full).sum() <= len(objs), cat
+
+
 def test_rotations_are_exact_and_tilt_is_limited():
     p = Pose(1.0, 1.0, 0)
     for _ in range(12):
