@@ -28,6 +28,10 @@ from fallgen.audio.room import (KERNEL, RirSettings, RoomAcoustics, early_arriva
 FULL_SCALE_PA = 20.0
 #: Largest |audio| a clip is allowed before it is scaled down (and ``gain`` < 1 recorded).
 CEILING = 0.99
+#: Precision of the mix's FFT convolutions. Single precision: their error is ~2e-7 of the
+#: clip's peak (-133 dB; the clip itself is stored in float32), and they cost ~40 % less than
+#: in double (2 s of audio with a 2 s late response: 11.4 ms against 17.8 ms).
+CONVOLUTION_DTYPE = np.float32
 
 
 @dataclass(frozen=True)
@@ -136,11 +140,14 @@ class Binaural:
             h, t_c, level = self.early(room, s.position, listener, settings)
             if i == loudest:
                 late_from = (t_c, level)
-            # both ears in one call (the signal's transform is made once)
-            y = oaconvolve(sig[None, :], h, axes=-1)[:, :n]
+            # both ears in one call (the signal's transform is made once); the convolutions
+            # run in single precision (see CONVOLUTION_DTYPE), the sum in double
+            y = oaconvolve(sig[None, :].astype(CONVOLUTION_DTYPE), h.astype(CONVOLUTION_DTYPE),
+                           axes=-1)[:, :n]
             out[:, :y.shape[1]] += y
         late = self.late(room, late_from[1], late_from[0], n, fs, rng)
-        out += fftconvolve(total[None, :], late, axes=-1)[:, :n]
+        out += fftconvolve(total[None, :].astype(CONVOLUTION_DTYPE),
+                           late.astype(CONVOLUTION_DTYPE), axes=-1)[:, :n]
         audio = out / FULL_SCALE_PA
         peak = float(np.abs(audio).max())
         gain = 1.0 if peak <= CEILING else CEILING / peak
