@@ -166,37 +166,3 @@ def test_heap_trimmer_waits_for_growth_above_what_a_trim_left(monkeypatch):
     t = G.HeapTrimmer(above_mb=896, hysteresis_mb=64)
     assert [t() for _ in range(6)] == [True, False, False, True, False, True]
     assert t.trims == len(calls) == 3 and t.left_mb == 860
-
-
-def test_an_event_found_unfindable_is_not_tried_again_in_the_shard():
-    """make_episode: a no_path event is skipped (and recorded) without another try by later
-    episodes of the shard; other reasons are tried again (they depend on the spawn)."""
-    from fallgen.pipeline.episode import Skip
-    from fallgen.pipeline.generate import make_episode
-    from fallgen.pipeline.plan import PlannedEpisode
-
-    class Maker:
-        def __init__(self):
-            self.tried = []
-
-        def make(self, episode_id, event, root_seed, frames):
-            self.tried.append((episode_id, event))
-            if event in ("b", "c"):
-                raise Skip("no_path" if event == "b" else "replay_diverged")
-            return f"episode {episode_id} from {event}"
-
-    class Cfg:
-        root_seed = 1
-        generate = type("G", (), {"frames": "first"})
-
-    pools = {("train", "kitchen"): ["a", "b", "c", "d"]}
-    events = {e: e for e in "abcd"}
-    maker, unfindable = Maker(), set()
-    made = [make_episode(maker, PlannedEpisode(k, "train", "kitchen", e), pools, events, Cfg,
-                         unfindable) for k, e in enumerate("bbc")]
-    assert [m[0] for m in made] == ["episode 0 from d", "episode 1 from d", "episode 2 from d"]
-    assert [m[1] for m in made] == [[("b", "no_path"), ("c", "replay_diverged")],
-                                    [("b", "no_path"), ("c", "replay_diverged")],
-                                    [("c", "replay_diverged")]]
-    assert maker.tried == [(0, "b"), (0, "c"), (0, "d"), (1, "c"), (1, "d"), (2, "c"), (2, "d")]
-    assert unfindable == {"b"}

@@ -35,7 +35,7 @@ from fallgen.dataset.manifest import finalize
 from fallgen.dataset.writer import ShardWriter, row_of, shard_name
 from fallgen.physics.events import FallEvent, from_table
 from fallgen.physics.rehearse import rehearsal_dir
-from fallgen.pipeline.episode import Episode, EpisodeMaker, Skip
+from fallgen.pipeline.episode import EpisodeMaker, Skip
 from fallgen.pipeline.executor import parallel_map, select_units
 from fallgen.pipeline.plan import PlannedEpisode, plan, pools_of
 from fallgen.world.library import World, load_world
@@ -161,51 +161,31 @@ def make_shard(world: World, maker: EpisodeMaker, cfg: BuildConfig, job: ShardJo
     res = ShardResult(name, 0)
     rows, dropped = [], []
     writer = ShardWriter(out, job.split, job.index, job.count, maker.labels)
-    unfindable: set[str] = set()  # this shard's events that no reachable pose saw
     try:
         for p in job.episodes:
             trim()
-            ep, skipped = make_episode(maker, p, pools, events, cfg, unfindable)
-            for _, reason in skipped:
-                res.skips[reason] += 1
-            if ep is None:
+            skipped: list[tuple[str, str]] = []
+            for event_id in _attempts(p, pools):
+                ev = events[event_id]
+                try:
+                    ep = maker.make(p.episode_id, ev, cfg.root_seed, cfg.generate.frames)
+                except Skip as s:
+                    res.skips[s.reason] += 1
+                    skipped.append((ev.event_id, s.reason))
+                    continue
+                rows.append(row_of(ep, p.split, f"media/{name}.h5", writer.add(ep),
+                                   cfg.root_seed, skipped))
+                res.timings_s.update(ep.timings_s)
+                break
+            else:
                 res.skips["episode_dropped"] += 1
                 dropped.append([p.episode_id, [list(s) for s in skipped]])
-                continue
-            rows.append(row_of(ep, p.split, f"media/{name}.h5", writer.add(ep), cfg.root_seed,
-                               skipped))
-            res.timings_s.update(ep.timings_s)
         writer.close(rows, dropped)
     except BaseException:
         writer.abort()
         raise
     res.episodes = len(rows)
     return res
-
-
-def make_episode(maker: EpisodeMaker, p: PlannedEpisode, pools: dict[tuple[str, str], list[str]],
-                 events: dict[str, FallEvent], cfg: BuildConfig, unfindable: set[str]
-                 ) -> tuple[Episode | None, list[tuple[str, str]]]:
-    """Episode ``p`` from the first of its events (:func:`_attempts`) that makes one, and the
-    (event id, reason) of those skipped before it; None when none does. ``unfindable``: the
-    events of this shard found ``no_path`` so far (updated): they are skipped without another
-    try (recorded as ``no_path`` again). In the full build ~1 in 8 no_path attempts retried an
-    event that had failed for an earlier episode of the shard; each costs ~0.1 s, and whether
-    any reachable pose sees the object hardly depends on where the agent starts in a connected
-    room. The set lives as long as the shard, so the output still depends only on the shard."""
-    skipped: list[tuple[str, str]] = []
-    for event_id in _attempts(p, pools):
-        if event_id in unfindable:
-            skipped.append((event_id, "no_path"))
-            continue
-        try:
-            return maker.make(p.episode_id, events[event_id], cfg.root_seed,
-                              cfg.generate.frames), skipped
-        except Skip as s:
-            skipped.append((event_id, s.reason))
-            if s.reason == "no_path":
-                unfindable.add(event_id)
-    return None, skipped
 
 
 def _malloc_trim():
