@@ -59,7 +59,7 @@ def test_kept_room_spec_makes_the_same_model_and_is_never_changed(world, monkeyp
     assert room_spec(v, world.materials, settings)[0] is not room
     assert _saved(first.model) == _saved(again.model) == _saved(fresh.model)
     assert first.geom_owner == fresh.geom_owner and first.geom_material == fresh.geom_material
-    # another settings object is another room (options differ)
+    # another settings object is another room: the key is the whole settings, not the options
     assert room_spec(v, world.materials, PhysicsSettings())[0] is not \
         room_spec(v, world.materials, settings)[0]
 
