@@ -177,3 +177,50 @@ def test_footprint_bounds_the_object_pixels_and_checks_skip_only_hidden_views(wo
             cam.close()
     assert skipped > 0.2 * checked
     assert cropped > 10_000 and differ <= 1e-3 * cropped, (differ, cropped)
+
+
+def test_segmentation_draws_leave_out_only_geoms_that_cannot_show(world):
+    """A segmentation draw leaves out the geoms whose bounding spheres lie outside the part of
+    the view drawn or read (a cropped window, a window read back, the whole view): the same
+    geom ids at every pixel as drawing them all, over random poses of objects of several
+    shapes, while most of the room is left out of a cropped draw."""
+    rng = np.random.default_rng(5)
+    v = world.variant(VARIANT)
+    cats = world.categories
+    compared = hidden = total = 0
+    for cid in ("cup", "book", "wineglass"):
+        var = cats.categories[cid].variants[0]
+        inst = cats.instance(cid, var.name, next(iter(var.materials)))
+        scene = build_scene(v, world.materials, [PlacedObject(
+            "target", inst, (float(rng.uniform(3.0, 5.0)), 1.8, float(rng.uniform(0.02, 0.9))))])
+        d = scene.data()
+        mujoco.mj_forward(scene.model, d)
+        cam = EgoCamera(scene, {"target": cid})
+        f = cam.frames
+        try:
+            for _ in range(30):
+                pose = Pose(float(rng.uniform(0.5, 6.0)), float(rng.uniform(0.4, 3.0)),
+                            int(rng.integers(12)), int(rng.choice([-45, -15, 0, 15])))
+                c = cam.camera(pose)
+                _, window = cam.footprint(d, pose, "obj:target")
+                views = [(None, False)] + ([(window, False), (window, True)] if window else [])
+                for win, crop in views:
+                    f.cull = False
+                    a = f.geoms(d, c, win, crop)
+                    f.cull = True
+                    b = f.geoms(d, c, win, crop)
+                    assert np.array_equal(a, b), (cid, pose, win, crop)
+                    compared += a.size
+                    if crop:
+                        out = f._outside(d, c, win)
+                        hidden += int(out.sum())
+                        total += len(out)
+                depth_a, ids_a = f.depth_and_geoms(d, c)
+                f.cull = False
+                depth_b, ids_b = f.depth_and_geoms(d, c)
+                f.cull = True
+                assert np.array_equal(depth_a, depth_b) and np.array_equal(ids_a, ids_b)
+        finally:
+            cam.close()
+    assert compared > 100_000 and total > 0
+    assert hidden > 0.5 * total, (hidden, total)

@@ -49,6 +49,14 @@ class SceneFrames:
         self._option = mujoco.MjvOption()
         self._rect = mujoco.MjrRect(0, 0, self.size, self.size)
         self._table: np.ndarray | None = None
+        self._culled = False  # the last draw left geoms out (its segment table is its own)
+        #: segmentation draws leave out the geoms that cannot reach the pixels drawn
+        self.cull = True
+        off = np.flatnonzero(np.asarray(self._option.geomgroup) == 0)
+        self._hidden_group = int(off[0]) if len(off) else None
+        # an infinite plane has bounding radius 0: never left out
+        self._radius = np.where(model.geom_rbound > 0, model.geom_rbound * (1 + 1e-3) + 1e-4,
+                                np.inf)
 
     def close(self) -> None:
         if self._con is not None:
@@ -57,11 +65,29 @@ class SceneFrames:
             self._con = None
 
     def _draw(self, data: mujoco.MjData, camera: mujoco.MjvCamera, ids: bool,
-              crop: tuple[int, int, int, int] | None = None) -> mujoco.MjrRect:
+              crop: tuple[int, int, int, int] | None = None,
+              read: tuple[int, int, int, int] | None = None) -> mujoco.MjrRect:
         """Draw the view; with ``crop`` = (row0, row1, col0, col1) only that part of the
-        image, into the corner of the buffer (the frustum narrowed to it). The rect drawn."""
-        mujoco.mjv_updateScene(self.model, data, self._option, None, camera,
-                               mujoco.mjtCatBit.mjCAT_ALL.value, self._scene)
+        image, into the corner of the buffer (the frustum narrowed to it). ``read``: the only
+        part of the image that will be read back. A segmentation draw leaves out the geoms
+        that cannot reach the part drawn or read (:meth:`_outside`). The rect drawn."""
+        hidden = self._outside(data, camera, crop or read) if ids and self.cull else None
+        if hidden is not None and hidden.any():
+            # in a group the views do not draw for this update only (the segment ids of the
+            # geoms drawn are then their places in a shorter list: see _segment_table)
+            groups = self.model.geom_group
+            kept = groups[hidden]
+            groups[hidden] = self._hidden_group
+            try:
+                mujoco.mjv_updateScene(self.model, data, self._option, None, camera,
+                                       mujoco.mjtCatBit.mjCAT_ALL.value, self._scene)
+            finally:
+                groups[hidden] = kept
+            self._culled = True
+        else:
+            mujoco.mjv_updateScene(self.model, data, self._option, None, camera,
+                                   mujoco.mjtCatBit.mjCAT_ALL.value, self._scene)
+            self._culled = False
         if self._scene.ngeom >= self._scene.maxgeom:  # geoms were left out
             raise RuntimeError(f"the scene holds only {self._scene.maxgeom} geoms")
         flags = self._scene.flags
@@ -83,6 +109,35 @@ class SceneFrames:
         self.context.make_current()
         mujoco.mjr_render(rect, self._scene, self._con)
         return rect
+
+    def _outside(self, data: mujoco.MjData, camera: mujoco.MjvCamera,
+                 crop: tuple[int, int, int, int] | None) -> np.ndarray | None:
+        """The geoms whose bounding spheres lie wholly outside the view frustum (narrowed to
+        ``crop``, image rows from the top), one pixel of slack on every side: none of their
+        triangles can cover a pixel centre of the draw. A segmentation draw is flat colours
+        without reflections, shadows or multisampling, in the order of the scene's list, so
+        leaving them out changes no pixel, while a CPU renderer's cost of a small cropped
+        draw is mostly the geometry of the whole room. None when there is no group to
+        hide them in."""
+        if self._hidden_group is None:
+            return None
+        az, el = np.radians(camera.azimuth), np.radians(camera.elevation)
+        ca, sa, ce, se = np.cos(az), np.sin(az), np.cos(el), np.sin(el)
+        f = np.array([ce * ca, ce * sa, se])  # the free camera's axes (see mjv_updateScene)
+        r = np.array([sa, -ca, 0.0])
+        u = np.array([-ca * se, -sa * se, ce])  # r x f
+        eye = np.asarray(camera.lookat) - camera.distance * f
+        half = self.size / 2
+        t = np.tan(np.radians(self.model.vis.global_.fovy) / 2) / half  # per pixel
+        r0, r1, c0, c1 = crop if crop is not None else (0, self.size, 0, self.size)
+        # tangents of the four sides, grown by a pixel
+        left, right = (c0 - 1 - half) * t, (c1 + 1 - half) * t
+        low, high = (half - r1 - 1) * t, (half - r0 + 1) * t
+        # outward unit normals of the side planes (through the eye)
+        normals = np.array([left * f - r, r - right * f, low * f - u, u - high * f])
+        normals /= np.linalg.norm(normals, axis=1)[:, None]
+        dist = (data.geom_xpos - eye) @ normals.T  # (ngeom, 4)
+        return (dist > self._radius[:, None]).any(axis=1)
 
     def rgb(self, data: mujoco.MjData, camera: mujoco.MjvCamera) -> np.ndarray:
         self._draw(data, camera, False)
@@ -128,7 +183,7 @@ class SceneFrames:
         if window is not None and crop:
             rect = self._draw(data, camera, True, window)
         else:
-            self._draw(data, camera, True)
+            self._draw(data, camera, True, read=window)
             rect = self._rect
             if window is not None:
                 r0, r1, c0, c1 = window
@@ -147,13 +202,16 @@ class SceneFrames:
     def _segment_table(self) -> np.ndarray:
         """Geom id of each segment colour (0: the background) of the scene last drawn. Every
         draw of one model lists the same geoms in the same order (MuJoCo culls nothing), so
-        the table is made once per length of the list."""
+        the table is made once per length of the list; a draw that left geoms out
+        (:meth:`_outside`) gets a table of its own."""
         n = self._scene.ngeom
-        if self._table is None or len(self._table) != n + 1:
+        if self._culled or self._table is None or len(self._table) != n + 1:
             table = np.full(n + 1, -1, np.int64)  # segment id 0 is the background
             geom = int(mujoco.mjtObj.mjOBJ_GEOM)
             for g in self._scene.geoms[:n]:
                 if g.segid != -1 and g.objtype == geom and g.objid >= 0:
                     table[g.segid + 1] = g.objid
+            if self._culled:  # a shorter list of this draw only
+                return table
             self._table = table
         return self._table
