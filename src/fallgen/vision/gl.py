@@ -72,22 +72,19 @@ class SceneFrames:
         part of the image that will be read back. A segmentation draw leaves out the geoms
         that cannot reach the part drawn or read (:meth:`_outside`). The rect drawn."""
         hidden = self._outside(data, camera, crop or read) if ids and self.cull else None
-        if hidden is not None and hidden.any():
+        self._culled = hidden is not None and bool(hidden.any())
+        groups = self.model.geom_group
+        if self._culled:
             # in a group the views do not draw for this update only (the segment ids of the
             # geoms drawn are then their places in a shorter list: see _segment_table)
-            groups = self.model.geom_group
             kept = groups[hidden]
             groups[hidden] = self._hidden_group
-            try:
-                mujoco.mjv_updateScene(self.model, data, self._option, None, camera,
-                                       mujoco.mjtCatBit.mjCAT_ALL.value, self._scene)
-            finally:
-                groups[hidden] = kept
-            self._culled = True
-        else:
+        try:
             mujoco.mjv_updateScene(self.model, data, self._option, None, camera,
                                    mujoco.mjtCatBit.mjCAT_ALL.value, self._scene)
-            self._culled = False
+        finally:
+            if self._culled:
+                groups[hidden] = kept
         if self._scene.ngeom >= self._scene.maxgeom:  # geoms were left out
             raise RuntimeError(f"the scene holds only {self._scene.maxgeom} geoms")
         flags = self._scene.flags
