@@ -224,3 +224,47 @@ def test_segmentation_draws_leave_out_only_geoms_that_cannot_show(world):
             cam.close()
     assert compared > 100_000 and total > 0
     assert hidden > 0.5 * total, (hidden, total)
+
+
+_RENDER_DIGEST = """
+import hashlib, sys
+import fallgen, mujoco
+from fallgen.nav.agent import Pose
+from fallgen.vision.camera import EgoCamera
+from fallgen.world.library import load_world
+from fallgen.world.scene import PlacedObject, build_scene
+w = load_world(sys.argv[1])
+inst = w.categories.instance("cup", "mug", "ceramic")
+scene = build_scene(w.variant(sys.argv[2]), w.materials,
+                    [PlacedObject("target", inst, (4.0, 1.8, 0.05))])
+d = scene.data()
+mujoco.mj_forward(scene.model, d)
+cam = EgoCamera(scene, {"target": "cup"})
+h = hashlib.sha256()
+for k in (0, 1, 11):
+    v = cam.render(d, Pose(2.5, 1.8, k, -30))
+    for a in (v.rgb, v.depth, v.instance):
+        h.update(a.tobytes())
+    h.update(str(cam.pixels_of(d, Pose(2.5, 1.8, k, -30))).encode())
+cam.close()
+print(h.hexdigest())
+"""
+
+
+def test_rasteriser_threads_do_not_change_pixels():
+    """fallgen rasterises in the calling thread (``LP_NUM_THREADS=0``, set by the package and
+    in every worker): the same RGB, depth, segmentation and pixel counts as Mesa's default of
+    rasteriser threads of its own (each setting in its own process: Mesa reads it once)."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[2]
+    digests = []
+    for threads in ("0", "2"):
+        env = {**os.environ, "LP_NUM_THREADS": threads}
+        out = subprocess.run([sys.executable, "-c", _RENDER_DIGEST, str(repo), VARIANT],
+                             env=env, capture_output=True, text=True, check=True)
+        digests.append(out.stdout.strip())
+    assert len(digests[0]) == 64 and digests[0] == digests[1]

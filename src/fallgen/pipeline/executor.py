@@ -28,8 +28,9 @@ U = TypeVar("U")
 EXECUTORS = ("local", "ray")
 #: environment of every worker: one BLAS thread (bit-identical sums) and headless GL
 WORKER_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
-              # Mesa's CPU rasteriser (llvmpipe) starts a thread per core in every process
-              "LP_NUM_THREADS": "1",
+              # Mesa's CPU rasteriser (llvmpipe) rasterises in the calling thread: no thread of
+              # its own to hand every draw to (see fallgen/__init__.py)
+              "LP_NUM_THREADS": "0",
               "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
 
 
