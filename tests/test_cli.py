@@ -167,6 +167,8 @@ def test_rehearse_runs(capsys, tmp_path):
     assert code == 0, err
     assert (tmp_path / "o/rehearsal/kitchen_galley-l1-m1.parquet").exists()
     assert "rehearsal by zone kind" in out and "events kept of" in out
+    # what the process that did the work used (one variant: rehearsed in this process)
+    assert re.search(r"rehearsal: 1 process, peak memory \d+ MB, CPU \d+ s", out), out
 
 
 def test_sounds_writes_wav_and_png(capsys, tmp_path, world, monkeypatch):

@@ -148,6 +148,19 @@ def _run_rehearsal(cfg, world, rooms: str | None, workers: int, out: Path | None
     n = sum(s.trials for s in stats)
     k = sum(s.reasons["kept"] for s in stats)
     console.print(f"{k} events kept of {n} trials in {len(stats)} variants -> {dest}")
+    _print_usage("rehearsal", [s.usage for s in stats])
+
+
+def _print_usage(phase: str, usages: list) -> None:
+    """One line: the peak resident memory and CPU time of each process that did the phase's
+    work in this run (a worker, or this process when it worked alone)."""
+    from fallgen.pipeline.executor import per_process
+
+    procs = per_process(usages)
+    if procs:
+        console.print(f"{phase}: {len(procs)} process{'es' if len(procs) > 1 else ''}, "
+                      "peak memory " + ", ".join(f"{u.peak_rss_mb:.0f}" for u in procs)
+                      + " MB, CPU " + ", ".join(f"{u.cpu_s:.0f}" for u in procs) + " s")
 
 
 def _run_generation(cfg, config: Path, world, workers: int, out: Path | None,
@@ -167,6 +180,7 @@ def _run_generation(cfg, config: Path, world, workers: int, out: Path | None,
     n_shards = len(select_units(b.jobs, parallel["shard_index"], parallel["num_shards"]))
     skips: Counter = Counter()
     timings: Counter = Counter()
+    usages: list = []
     made = 0
     with Progress(TextColumn("generate"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                   TextColumn("{task.description}"), console=console) as bar:
@@ -177,6 +191,7 @@ def _run_generation(cfg, config: Path, world, workers: int, out: Path | None,
             made += r.episodes
             skips.update(r.skips)
             timings.update(r.timings_s)
+            usages.append(r.usage)
             bar.update(task, advance=1, description=f"{r.name}: " + (
                 "done before" if r.skipped_shard else f"{r.episodes} episodes"))
 
@@ -198,6 +213,7 @@ def _run_generation(cfg, config: Path, world, workers: int, out: Path | None,
     if total:
         console.print("time by stage: " + ", ".join(
             f"{k} {v:.1f} s ({v / total:.0%})" for k, v in timings.most_common()))
+    _print_usage("generation", usages)
 
 
 def _config(config: Path, frames: str | None = None):

@@ -69,3 +69,36 @@ def test_ray_executor_gives_the_same_bytes(tiny_build, tmp_path, cli, digest):
                "--workers", "2") == 0
     dirs = ("data", "media", ".")
     assert digest(root, dirs) == digest(base / "one", dirs)
+
+
+def _usage_after(mb: int):
+    import numpy as np
+
+    from fallgen.pipeline.executor import process_usage
+
+    block = np.ones(mb * 2 ** 20 // 8)  # touched: resident
+    assert block.sum() > 0
+    return process_usage()
+
+
+def test_process_usage_reports_each_workers_peak_memory():
+    """Each unit's result carries its process's usage; per_process keeps every worker's last
+    report, and a worker that held 200 MB once reports a peak above that ever after."""
+    import os
+
+    from fallgen.pipeline.executor import ProcessUsage, per_process, process_usage
+
+    me = process_usage()
+    assert me.pid == os.getpid() and me.peak_rss_mb > 10 and me.cpu_s > 0
+    got = list(parallel_map(_usage_after, [200, 1, 1, 1], _set_offset, (0,), workers=2))
+    procs = per_process(got)
+    assert len(procs) == 2 and me.pid not in {u.pid for u in procs}
+    big = next(u for u in got[:1])
+    assert big.peak_rss_mb > 200
+    # the worker that held 200 MB: its last report still has that peak
+    assert max(u.peak_rss_mb for u in procs) >= big.peak_rss_mb
+    # the last report of a process wins; units done before this run (None) are left out
+    a = ProcessUsage("h", 1, 100.0, 1.0)
+    b = ProcessUsage("h", 1, 150.0, 2.0)
+    c = ProcessUsage("other", 1, 50.0, 1.0)
+    assert per_process([a, None, b, c, a]) == [b, c]

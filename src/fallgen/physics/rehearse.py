@@ -23,6 +23,7 @@ from fallgen.atomic import write_bytes, write_text
 from fallgen.config import BuildConfig
 from fallgen.physics.drop import REASONS, run_trial
 from fallgen.physics.events import FallEvent, from_table, to_table
+from fallgen.pipeline.executor import ProcessUsage, parallel_map, process_usage, select_units
 from fallgen.world.library import World, load_world
 
 
@@ -33,6 +34,8 @@ class RoomStats:
     reasons: Counter = field(default_factory=Counter)
     by_zone_kind: dict[str, Counter] = field(default_factory=dict)
     by_category: dict[str, Counter] = field(default_factory=dict)
+    #: the process that rehearsed it, when it was done in this run (not written to the sidecar)
+    usage: ProcessUsage | None = field(default=None, compare=False)
 
     def add(self, zone_kind: str, category: str, reason: str) -> None:
         self.trials += 1
@@ -103,12 +106,12 @@ def _init_worker(data_root: str) -> None:
     _WORLD = load_world(data_root)
 
 
-def _work(args: tuple[str, BuildConfig, str]) -> tuple[str, dict]:
+def _work(args: tuple[str, BuildConfig, str]) -> tuple[str, dict, ProcessUsage]:
     variant_id, cfg, out_dir = args
     assert _WORLD is not None
     events, stats = rehearse_variant(_WORLD, variant_id, cfg)
     write_variant(Path(out_dir) / f"{variant_id}.parquet", events, stats)
-    return variant_id, stats.as_dict()
+    return variant_id, stats.as_dict(), process_usage()
 
 
 def rehearse(world: World, cfg: BuildConfig, variant_ids: Iterable[str], *, out: Path,
@@ -119,8 +122,6 @@ def rehearse(world: World, cfg: BuildConfig, variant_ids: Iterable[str], *, out:
     """Rehearse the given variants (or those of ``shard_index`` of ``num_shards``, round robin)
     into ``out``; returns the stats of every variant (the skipped ones read back from their
     sidecar). ``workers`` > 1 or ``executor="ray"``: one variant per task."""
-    from fallgen.pipeline.executor import parallel_map, select_units
-
     out.mkdir(parents=True, exist_ok=True)
     todo, done = [], []
     for vid in select_units(list(variant_ids), shard_index, num_shards):
@@ -136,14 +137,17 @@ def rehearse(world: World, cfg: BuildConfig, variant_ids: Iterable[str], *, out:
         for vid in todo:
             events, stats = rehearse_variant(world, vid, cfg)
             write_variant(out / f"{vid}.parquet", events, stats)
+            stats.usage = process_usage()
             results.append(stats)
             if progress:
                 progress(vid, stats.as_dict())
     else:
-        for vid, d in parallel_map(_work, [(v, cfg, str(out)) for v in todo], _init_worker,
-                                   (str(world.root),), min(workers, len(todo)), executor,
-                                   ray_address):
-            results.append(RoomStats.from_dict(d))
+        for vid, d, usage in parallel_map(_work, [(v, cfg, str(out)) for v in todo],
+                                          _init_worker, (str(world.root),),
+                                          min(workers, len(todo)), executor, ray_address):
+            stats = RoomStats.from_dict(d)
+            stats.usage = usage
+            results.append(stats)
             if progress:
                 progress(vid, d)
     return done + results

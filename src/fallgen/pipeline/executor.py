@@ -14,14 +14,20 @@ and BLAS is pinned to one thread in every worker.
 
 For many machines without Ray, ``select_units(units, index, count)`` gives the units of one
 Slurm array task or Kubernetes indexed job (``--shard-index I --num-shards N``).
+
+A unit's result carries :func:`process_usage` of the process that made it (peak resident memory,
+CPU time so far), so a build can report what each worker used (:func:`per_process`).
 """
 
 from __future__ import annotations
 
 import multiprocessing
 import os
-from collections.abc import Callable, Iterator, Sequence
+import platform
+import resource
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
 from typing import Any, TypeVar
 
 U = TypeVar("U")
@@ -32,6 +38,37 @@ WORKER_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THRE
               # its own to hand every draw to (see fallgen/__init__.py)
               "LP_NUM_THREADS": "0",
               "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+
+
+@dataclass(frozen=True)
+class ProcessUsage:
+    """What one process had used when it reported: its peak resident memory and CPU time."""
+
+    host: str
+    pid: int
+    peak_rss_mb: float  # the process's high-water mark so far (getrusage ru_maxrss)
+    cpu_s: float  # user + system time so far
+
+
+def process_usage() -> ProcessUsage:
+    """This process's usage so far (Linux reports ``ru_maxrss`` in kB, macOS in bytes)."""
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    kb = r.ru_maxrss / 1024 if platform.system() == "Darwin" else r.ru_maxrss
+    return ProcessUsage(platform.node(), os.getpid(), kb / 1024, r.ru_utime + r.ru_stime)
+
+
+def per_process(usages: Iterable[ProcessUsage | None]) -> list[ProcessUsage]:
+    """Each process's last report (peaks and CPU time only grow), in the order the processes
+    first reported; ``None`` (a unit done before this run) is left out."""
+    last: dict[tuple[str, int], ProcessUsage] = {}
+    for u in usages:
+        if u is None:
+            continue
+        key = (u.host, u.pid)
+        prev = last.get(key)
+        if prev is None or u.cpu_s >= prev.cpu_s:
+            last[key] = u
+    return list(last.values())
 
 
 def select_units(units: Sequence[U], index: int | None, count: int | None) -> list[U]:
@@ -100,4 +137,5 @@ def _ray_map(work, units, init, init_args, workers, address) -> Iterator[Any]:
             ray.shutdown()
 
 
-__all__ = ["parallel_map", "select_units", "EXECUTORS"]
+__all__ = ["parallel_map", "select_units", "EXECUTORS", "ProcessUsage", "process_usage",
+           "per_process"]

@@ -36,7 +36,7 @@ from fallgen.dataset.writer import ShardWriter, row_of, shard_name
 from fallgen.physics.events import FallEvent, from_table
 from fallgen.physics.rehearse import rehearsal_dir
 from fallgen.pipeline.episode import EpisodeMaker, Skip
-from fallgen.pipeline.executor import parallel_map, select_units
+from fallgen.pipeline.executor import ProcessUsage, parallel_map, process_usage, select_units
 from fallgen.pipeline.plan import PlannedEpisode, plan, pools_of
 from fallgen.world.library import World, load_world
 
@@ -50,6 +50,7 @@ class ShardResult:
     skips: Counter = field(default_factory=Counter)
     timings_s: Counter = field(default_factory=Counter)
     skipped_shard: bool = False  # already done
+    usage: ProcessUsage | None = None  # of the process that made it, when it was done
 
 
 def _rehearsal_files(cfg: BuildConfig, out: Path | None) -> list[Path]:
@@ -274,7 +275,9 @@ def _make_job(world: World, maker: EpisodeMaker, cfg: BuildConfig, job: ShardJob
     """One shard, loading only the events it can use (all of a full build's events with
     their contacts would take ~700 MB in every worker)."""
     events = {e.event_id: e for e in load_events(cfg, out, job_event_ids(job, pools))}
-    return make_shard(world, maker, cfg, job, events, pools, out, trim)
+    res = make_shard(world, maker, cfg, job, events, pools, out, trim)
+    res.usage = process_usage()
+    return res
 
 
 def _in_process(world: World, cfg: BuildConfig, jobs: list[ShardJob],
