@@ -9,7 +9,7 @@ export MUJOCO_GL ?= egl
 CONFIG ?= configs/full.toml
 WORKERS ?= $(shell nproc 2>/dev/null || echo 2)
 
-.PHONY: setup demo test test-fast bench assets rehearse generate dataset smoke clean lint
+.PHONY: setup demo test test-fast bench bench-full assets rehearse generate dataset smoke clean lint
 
 setup: $(VENV)/.fallgen-installed
 $(VENV)/.fallgen-installed: pyproject.toml scripts/setup.sh
@@ -49,6 +49,13 @@ bench: setup
 		| tee build/bench-room.json
 	$(PY) bench/generate_bench.py | tee build/bench-generate.json
 	$(PY) bench/build_bench.py | tee build/bench-build.json
+	$(PY) bench/report.py build
+
+## bench-full: the paper-size build itself, timed (wall per phase, CPU, each worker's peak
+## memory, file fingerprint), validated and removed; ~10-15 min on 2 cores, ~6 GB of disk.
+bench-full: setup
+	@mkdir -p build
+	$(PY) bench/full_build.py --workers $(WORKERS) | tee build/bench-full.json
 	$(PY) bench/report.py build
 
 assets: setup

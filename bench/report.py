@@ -35,6 +35,12 @@ def main() -> None:
         head["generate_speedup_workers"] = gen["speedup"]
         head["generate_same_bytes_1_vs_n_workers"] = gen["same_bytes"]
         head["bytes_per_episode"] = gen["bytes_per_episode"]
+    f = parts.get("full", {})
+    if f:  # `make bench-full`: the paper-size build itself, measured
+        head["full_build_min_measured"] = f["wall_min"]["total"]
+        head["full_build_meets_goal"] = f["meets_goal"]
+        head["full_build_peak_worker_mb"] = f["peak_worker_mb"]
+        head["full_build_machine"] = f["machine"]["cpu"]
     for name in ("impact", "room"):
         r = parts.get(name, {})
         head.update({f"{name}_{k}": v for k, v in r.items()
