@@ -21,6 +21,8 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 # Mesa's CPU rasteriser (llvmpipe, what EGL gives without a GPU) hands every draw to rasteriser
 # threads of its own (one per core by default) and the caller waits for them when it reads the
 # pixels back: 0 rasterises in the calling thread instead. Parallelism is by worker processes;
-# the pixels are the same (one full-size shard, the same bytes: 18.2-19.3 s of CPU against
-# 20.4-22.0 s with one rasteriser thread). Read when the first GL context is made.
+# the pixels are the same. One process alone on the machine made a full-size shard in 18.2-19.3 s
+# of CPU against 20.4-22.0 s with one rasteriser thread; with every core busy (a build's workers)
+# the two cost the same (two shards side by side, and a full build: 8.5 min, the same files, as
+# with one thread). Read when the first GL context is made.
 _os.environ.setdefault("LP_NUM_THREADS", "0")
