@@ -22,7 +22,11 @@ command line in fresh processes:
    than a study room's (longer searches for the object), so with one shard per worker the
    time with 2 workers is the kitchen shard's, and the ratio measures the imbalance of two
    shards rather than a build's throughput (a full build deals its 32 shards to the workers
-   as they finish: its workers were idle ~3 % of its time);
+   as they finish: its workers were idle ~3 % of its time). The 2-worker time still holds
+   the workers' start (imports, world, first loads: ~2 s of ~47 s on the development VM),
+   which a full build pays once for 16 shards a worker, so this ratio reads lower than a
+   build's: 1.75x here against 2.06x for the full build's generation phase (684 s with 1
+   worker, 332 s with 2, the same files; ``bench/full_build.py --one-worker``);
 3. the extrapolated full build (64 variants, 8000 episodes) = rehearsal + generation, against the
    original's ~8 hours (ThreeDWorld, reported in the paper's repository; not runnable here).
 

@@ -1,6 +1,7 @@
 """The paper-size build itself, timed on this machine. Prints one JSON line.
 
     python bench/full_build.py [--config configs/full.toml] [--workers N] [--out DIR] [--keep]
+                               [--one-worker]
 
 Runs what ``make dataset`` runs, as the library calls behind ``fallgen build`` (rehearsal of
 every room variant, then every shard: modal models the events need and are not cached yet are
@@ -13,14 +14,18 @@ directory under ``build/``, removed afterwards unless ``--keep``), then validate
   resident memory (goal < 1 GB), phase by phase;
 - how many modal models had to be solved (0: the cache was warm);
 - the episodes, bytes, skip counts and the time by stage;
+- with ``--one-worker``, the generation phase made again by one process from the same
+  rehearsal (the build's own throughput with 1 worker against ``--workers``: goal >= 1.8x with
+  2), and whether its data and media files are the same bytes;
 - a fingerprint of the files (sha256 over the manifest's per-file hashes of the data, media
   and rehearsal files): two builds of the same code and settings have the same fingerprint,
   whatever the machine's speed or the worker count;
 - the machine (CPU model, cores) and the versions: this VM's speed drifts by a third within
   minutes and differs more between days, so a time means little without them.
 
-This takes a while (9-15 minutes on the 2-core development VM) and ~6 GB of disk; it is not
-part of ``make bench`` (``make bench-full`` runs it and ``bench/report.py`` merges it).
+This takes a while (9-15 minutes on the 2-core development VM, twice that with
+``--one-worker``) and ~6 GB of disk (12 GB with ``--one-worker``); it is not part of ``make
+bench`` (``make bench-full`` runs it with ``--one-worker`` and ``bench/report.py`` merges it).
 """
 
 from __future__ import annotations
@@ -75,12 +80,39 @@ def _workers(usages) -> list[dict]:
             for u in per_process(usages) if u.pid != os.getpid()]
 
 
+def _one_worker(world, cfg, out: Path, t_workers: float, manifest: dict) -> dict:
+    """The generation phase again, in this process alone, from ``out``'s rehearsal."""
+    from fallgen.dataset.manifest import read_manifest
+    from fallgen.pipeline.generate import generate
+
+    one = out.with_name(out.name + "-1w")
+    if one.exists():
+        shutil.rmtree(one)
+    one.mkdir(parents=True)
+    (one / "rehearsal").symlink_to(out / "rehearsal")
+    t = time.perf_counter()
+    shards = generate(world, cfg, one, workers=1)
+    wall = time.perf_counter() - t
+    mine = {k: v["sha256"] for k, v in read_manifest(one)["files"].items()
+            if k.split("/", 1)[0] in ("data", "media")}
+    theirs = {k: v["sha256"] for k, v in manifest["files"].items()
+              if k.split("/", 1)[0] in ("data", "media")}
+    usage = _workers(r.usage for r in shards) or [
+        {"peak_rss_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)}]
+    shutil.rmtree(one)
+    return {"generate_min": round(wall / 60, 2),
+            "speedup_of_workers": round(wall / t_workers, 2),
+            "same_bytes": bool(mine) and mine == theirs, "process": usage[0]}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--config", type=Path, default=REPO / "configs" / "full.toml")
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 2)
     ap.add_argument("--out", type=Path, default=REPO / "build" / "bench-full")
     ap.add_argument("--keep", action="store_true", help="keep the dataset it built")
+    ap.add_argument("--one-worker", action="store_true",
+                    help="then generate again with one process, for the speed-up of --workers")
     args = ap.parse_args()
 
     import fallgen  # noqa: F401  (pins BLAS and the rasteriser's threads before numpy/mujoco)
@@ -152,6 +184,8 @@ def main() -> None:
         "bytes": size, "bytes_per_episode": int(size / max(made, 1)),
         "valid": not problems, "problems": problems[:5],
         "fingerprint": fingerprint(manifest)})
+    if args.one_worker:
+        report["one_worker"] = _one_worker(world, cfg, out, t3 - t2, manifest)
     if not args.keep:
         shutil.rmtree(out)
     print(json.dumps(report))

@@ -41,6 +41,9 @@ def main() -> None:
         head["full_build_meets_goal"] = f["meets_goal"]
         head["full_build_peak_worker_mb"] = f["peak_worker_mb"]
         head["full_build_machine"] = f["machine"]["cpu"]
+        if "one_worker" in f:
+            head["full_build_generate_speedup_workers"] = f["one_worker"]["speedup_of_workers"]
+            head["full_build_same_bytes_1_vs_n_workers"] = f["one_worker"]["same_bytes"]
     for name in ("impact", "room"):
         r = parts.get(name, {})
         head.update({f"{name}_{k}": v for k, v in r.items()

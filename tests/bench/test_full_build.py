@@ -1,6 +1,7 @@
 """bench/full_build.py (``make bench-full``) on a tiny config: it builds from scratch with a
 pool of workers, validates, reports every worker's memory and the files' fingerprint, which is
-that of the same config built by one process (the same bytes whatever the worker count)."""
+that of the same config built by one process (the same bytes whatever the worker count), and
+with ``--one-worker`` makes the generation again in one process and compares the bytes."""
 
 from __future__ import annotations
 
@@ -27,7 +28,7 @@ def test_full_build_bench_reports_a_valid_build_and_its_fingerprint(tiny_build, 
     base, cfg = tiny_build
     out = tmp_path / "b"
     r = subprocess.run([sys.executable, str(REPO / "bench" / "full_build.py"), "--config",
-                        str(cfg), "--workers", "2", "--out", str(out), "--keep"],
+                        str(cfg), "--workers", "2", "--out", str(out), "--keep", "--one-worker"],
                        capture_output=True, text=True, env=dict(os.environ))
     assert r.returncode == 0, r.stderr[-2000:]
     rep = json.loads(r.stdout.strip().splitlines()[-1])
@@ -41,3 +42,5 @@ def test_full_build_bench_reports_a_valid_build_and_its_fingerprint(tiny_build, 
     assert rep["peak_worker_mb"] == max(w["peak_rss_mb"] for ph in ("rehearsal", "generation")
                                         for w in rep[ph]["workers"])
     assert rep["wall_min"]["total"] > 0 and rep["meets_goal"]
+    # the generation again in one process: the same data and media files
+    assert rep["one_worker"]["same_bytes"] and rep["one_worker"]["speedup_of_workers"] > 0
