@@ -35,8 +35,9 @@ def test_full_build_bench_reports_a_valid_build_and_its_fingerprint(tiny_build, 
     assert rep["valid"] and rep["generation"]["episodes"] == 6
     assert rep["fingerprint"] == fingerprint(read_manifest(base / "one"))
     assert rep["fingerprint"] == fingerprint(read_manifest(out))
-    # two rehearsal workers (two variants) and two generation workers, each with its peak
-    assert len(rep["rehearsal"]["workers"]) == 2 and len(rep["generation"]["workers"]) == 2
+    # the pool's workers (two at most; how it deals the units is its own business), each with
+    # its peak
+    assert all(1 <= len(rep[ph]["workers"]) <= 2 for ph in ("rehearsal", "generation"))
     assert all(100 < w["peak_rss_mb"] < 4096 for ph in ("rehearsal", "generation")
                for w in rep[ph]["workers"])
     assert rep["peak_worker_mb"] == max(w["peak_rss_mb"] for ph in ("rehearsal", "generation")

@@ -92,11 +92,13 @@ def test_process_usage_reports_each_workers_peak_memory():
     assert me.pid == os.getpid() and me.peak_rss_mb > 10 and me.cpu_s > 0
     got = list(parallel_map(_usage_after, [200, 1, 1, 1], _set_offset, (0,), workers=2))
     procs = per_process(got)
-    assert len(procs) == 2 and me.pid not in {u.pid for u in procs}
-    big = next(u for u in got[:1])
+    # one entry per worker that took a unit (how the pool deals them is its own business)
+    assert [u.pid for u in procs] == list(dict.fromkeys(u.pid for u in got))
+    assert len(procs) <= 2 and me.pid not in {u.pid for u in procs}
+    big = got[0]
     assert big.peak_rss_mb > 200
     # the worker that held 200 MB: its last report still has that peak
-    assert max(u.peak_rss_mb for u in procs) >= big.peak_rss_mb
+    assert next(u for u in procs if u.pid == big.pid).peak_rss_mb >= big.peak_rss_mb
     # the last report of a process wins; units done before this run (None) are left out
     a = ProcessUsage("h", 1, 100.0, 1.0)
     b = ProcessUsage("h", 1, 150.0, 2.0)
