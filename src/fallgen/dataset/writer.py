@@ -15,7 +15,6 @@ rows), without timestamps, so a shard's bytes depend only on its episodes.
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 import h5py
@@ -23,6 +22,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from fallgen.atomic import commit
 from fallgen.dataset.schema import COLUMNS
 from fallgen.nav.agent import ACTIONS
 
@@ -148,7 +148,7 @@ class ShardWriter:
         if len(rows) != self.rows:
             raise ValueError(f"{len(rows)} rows for {self.rows} episodes")
         self._h5.close()
-        os.replace(self._tmp, self.media)
+        commit(self._tmp, self.media)
         table = pa.Table.from_pylist(rows) if rows else \
             pa.table({"episode_id": pa.array([], pa.int64())})
         meta = {"split": self.split, "shard": self.i, "num_shards": self.n,
@@ -156,7 +156,7 @@ class ShardWriter:
         table = table.replace_schema_metadata({META_KEY: json.dumps(meta, sort_keys=True)})
         tmp = self.data.with_name(self.data.name + ".tmp")
         pq.write_table(table, tmp, compression="zstd")
-        os.replace(tmp, self.data)
+        commit(tmp, self.data)
         return self.data, self.media
 
     def abort(self) -> None:
