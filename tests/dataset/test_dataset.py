@@ -46,6 +46,50 @@ def test_manifest_reader_round_trip(tiny_build):
         ds.get(99)
 
 
+def test_reader_index_finds_each_episode_reading_one_shard(tiny_build, monkeypatch):
+    import stat
+
+    import fallgen.dataset
+
+    base, _ = tiny_build
+    root = base / "one"
+    ds = fallgen.dataset.open(root)
+    rows = ds.rows()
+    assert ds.ids() == [r["episode_id"] for r in rows]
+    assert ds.ids("test") == [r["episode_id"] for r in rows if r["split"] == "test"]
+    kitchens = [r for r in rows if r["room_kind"] == "kitchen"]
+    assert ds.ids(room_kind="kitchen") == [r["episode_id"] for r in kitchens]
+    cat = rows[0]["category"]
+    assert ds.ids(categories=[cat]) == [r["episode_id"] for r in rows if r["category"] == cat]
+    # a lookup reads the shard that holds the episode, and only it
+    read = []
+    real = pq.read_table
+    monkeypatch.setattr(pq, "read_table", lambda p, *a, **k: read.append(p) or real(p, *a, **k))
+    ds = fallgen.dataset.open(root)
+    ds.index  # noqa: B018 (the index reads a few columns of every shard once)
+    read.clear()
+    for r in rows:
+        assert ds.row(r["episode_id"]) == r
+    assert sorted({str(p) for p in read}) == sorted({str(root / "data" / p.name) for p in
+                                                      ds.shards})
+    assert len(read) == len(ds.shards)  # each shard once: the rows are kept
+    a = ds.arrays(rows[0], ("audio", "occupancy"))
+    ep = ds.get(rows[0]["episode_id"])
+    assert np.array_equal(a["audio"], ep["audio"]) and np.array_equal(a["occupancy"],
+                                                                      ep["occupancy"])
+    assert 99 not in ds and rows[0]["episode_id"] in ds
+    # every file of the dataset is readable by others as the umask allows (not 0600)
+    for p in list((root / "data").iterdir()) + list((root / "media").iterdir()) + \
+            [root / "manifest.json", root / "README.md"]:
+        assert stat.S_IMODE(p.stat().st_mode) & 0o044 == 0o644 & 0o044 & ~_umask(), p
+
+
+def _umask() -> int:
+    from fallgen.atomic import umask
+
+    return umask()
+
+
 def _front_matter(text: str) -> dict:
     import yaml
 
