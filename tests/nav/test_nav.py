@@ -162,12 +162,49 @@ def test_spl_and_sna_of_hand_made_sequences():
     assert not o.success and o.n_actions == MAX_ACTIONS and not o.found_called
 
 
+def test_walk_judges_one_action_at_a_time_with_claims():
+    from fallgen.nav.agent import Walk
+
+    target = (3.0, 1.0, 0.0)
+    start = Pose(0.5, 1.0, 0)
+    # a wrong claim with one allowed ends the episode: outcome wrong_found
+    w = Walk(start, EMPTY, target, ALWAYS)
+    assert w.act(FOUND) and w.done and not w.success
+    assert w.outcome().kind == "wrong_found" and w.outcome().claims == 1
+    with pytest.raises(RuntimeError):
+        w.act(FORWARD)
+    # two claims (the original challenge): the first fails, the second, in reach, succeeds
+    w = Walk(start, EMPTY, target, ALWAYS, claims=2)
+    w.act(FOUND)
+    assert not w.done
+    for _ in range(4):
+        w.act(FORWARD)
+    w.act(FOUND)
+    o = w.outcome()
+    assert w.done and o.success and o.kind == "found" and o.claims == 2 and o.n_actions == 6
+    assert o.path_m == 1.0  # exactly: STEP_M per move made
+    # run() is a Walk fed the sequence: the same outcome
+    assert run(start, [FOUND] + [FORWARD] * 4 + [FOUND], EMPTY, target, ALWAYS, claims=2) == o
+    # a blocked move adds nothing to the path; the limit ends with outcome timeout
+    w = Walk(Pose(0.3, 1.0, 6), EMPTY, target, ALWAYS, max_actions=3)
+    assert not w.act(FORWARD) and w.path_m == 0.0
+    w.act(LEFT), w.act(LEFT)
+    assert w.done and w.outcome().kind == "timeout"
+    # the visibility test is asked only for a claim within reach
+    asked = []
+    w = Walk(start, EMPTY, target, lambda p: asked.append(p) or True)
+    w.act(FOUND)
+    assert asked == [] and not w.success
+    with pytest.raises(ValueError):
+        Walk(start, EMPTY, target, ALWAYS, claims=0)
+
+
 def test_expert_goes_around_an_obstacle_and_scores_one():
     target = (5.0, 1.0, 0.05)
     start = Pose(1.0, 1.0, 0)
     e = expert(start, WALLED, target, ALWAYS, ALWAYS)
     o = run(start, e.plan.actions, WALLED, target, ALWAYS)
-    assert o.success and o.spl(e.shortest_m) == pytest.approx(1.0)
+    assert o.success and o.spl(e.shortest_m) == 1.0  # exactly
     assert o.sna(e.fewest_actions) > 0.8
     assert e.plan.actions[-1] == FOUND
     # it had to pass the partition's open end (y > 3 m)

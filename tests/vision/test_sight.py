@@ -11,7 +11,7 @@ import pytest
 
 from fallgen.nav.agent import AgentSpec
 from fallgen.nav.occupancy import BOX_SIGNS
-from fallgen.pipeline.episode import _target_box
+from fallgen.pipeline.settled import target_box as _target_box
 from fallgen.vision import sight
 from fallgen.vision.sight import DRAWN_GROUPS, box_entries, line_of_sight
 from fallgen.world.scene import PlacedObject, build_scene

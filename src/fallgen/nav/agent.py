@@ -12,7 +12,8 @@ Judging (Gan et al. 2022): an episode succeeds when the agent executes ``found``
 ``MAX_ACTIONS`` actions, at most ``SUCCESS_DISTANCE_M`` (horizontal) from the object, with the
 object visible in its egocentric view (``visible(pose)``: at least ``VISIBLE_PIXELS``
 segmentation pixels of the object, decided by the caller's renderer). SPL = S l / max(p, l) with
-p the distance travelled and l the shortest path in the same action space; SNA = S n* / max(n,
+p the distance travelled (``STEP_M`` per forward move made) and l the shortest path in the same
+action space; SNA = S n* / max(n,
 n*) with n the number of actions (``found`` included) and n* the fewest possible.
 """
 
@@ -121,6 +122,15 @@ class Outcome:
     n_actions: int
     path_m: float
     poses: tuple[Pose, ...]  # after each action, the start first
+    claims: int = 0  # ``found`` actions executed
+
+    @property
+    def kind(self) -> str:
+        """``found`` (success), ``wrong_found`` (the last claim failed) or ``timeout``
+        (the actions ran out, or the sequence ended, without a successful claim)."""
+        if self.success:
+            return "found"
+        return "wrong_found" if self.found_called else "timeout"
 
     def spl(self, shortest_m: float) -> float:
         if not self.success:
@@ -132,21 +142,71 @@ class Outcome:
         return fewest_actions / max(self.n_actions, fewest_actions) if self.success else 0.0
 
 
-def run(start: Pose, actions: Sequence[int], grid: OccupancyGrid, target_xy,
-        visible: Callable[[Pose], bool], spec: AgentSpec = AgentSpec()) -> Outcome:
-    """Execute ``actions`` (stopping at the first ``found`` or after MAX_ACTIONS) and judge."""
-    pose, poses, path = start, [start], 0.0
-    found = False
-    n = 0
-    for a in actions[:MAX_ACTIONS]:
-        n += 1
-        nxt, _ = step(pose, int(a), grid, spec)
-        path += float(np.linalg.norm(nxt.xy - pose.xy))
-        pose = nxt
-        poses.append(pose)
+class Walk:
+    """One episode in progress, one action at a time: the action simulator and the judge.
+
+    :func:`run` feeds a whole sequence to a Walk; the environment (:mod:`fallgen.env`) feeds
+    it one action per step: one implementation of the rules for the dataset's expert, the
+    environment and ``fallgen evaluate``. The episode ends at a successful ``found``, when
+    ``claims`` ``found`` actions have been made, or after ``max_actions`` actions. A ``found``
+    succeeds when the agent stands within ``SUCCESS_DISTANCE_M`` (horizontally) of
+    ``target_xy`` and ``visible(pose)``; ``visible`` is asked only then."""
+
+    def __init__(self, start: Pose, grid: OccupancyGrid, target_xy,
+                 visible: Callable[[Pose], bool], spec: AgentSpec = AgentSpec(),
+                 claims: int = 1, max_actions: int = MAX_ACTIONS) -> None:
+        if claims < 1:
+            raise ValueError(f"claims must be at least 1 (got {claims})")
+        self.grid, self.spec, self.visible = grid, spec, visible
+        self.target_xy = np.asarray(target_xy, float)[:2]
+        self.claims_allowed, self.max_actions = claims, max_actions
+        self.pose = start
+        self.poses = [start]
+        self.path_m = 0.0
+        self.n_actions = 0
+        self.claims = 0
+        self.success = False
+        self.done = False
+
+    def distance_m(self, pose: Pose | None = None) -> float:
+        """Horizontal distance from ``pose`` (default: the current one) to the object."""
+        p = self.pose if pose is None else pose
+        return float(np.linalg.norm(p.xy - self.target_xy))
+
+    def act(self, action: int) -> bool:
+        """Execute ``action``; whether it moved, turned or tilted as asked (see :func:`step`).
+        Raises RuntimeError once the episode is over."""
+        if self.done:
+            raise RuntimeError("the episode is over: no more actions")
+        a = int(action)
+        nxt, ok = step(self.pose, a, self.grid, self.spec)
+        self.n_actions += 1
+        if a == FORWARD and ok:  # every move is STEP_M long: summed exactly (a power of two)
+            self.path_m += STEP_M
+        self.pose = nxt
+        self.poses.append(nxt)
         if a == FOUND:
-            found = True
+            self.claims += 1
+            if self.distance_m() <= SUCCESS_DISTANCE_M and self.visible(nxt):
+                self.success = True
+            self.done = self.success or self.claims >= self.claims_allowed
+        if self.n_actions >= self.max_actions:
+            self.done = True
+        return ok
+
+    def outcome(self) -> Outcome:
+        return Outcome(self.success, self.claims > 0, self.distance_m(), self.success,
+                       self.n_actions, self.path_m, tuple(self.poses), self.claims)
+
+
+def run(start: Pose, actions: Sequence[int], grid: OccupancyGrid, target_xy,
+        visible: Callable[[Pose], bool], spec: AgentSpec = AgentSpec(), claims: int = 1
+        ) -> Outcome:
+    """Execute ``actions`` (until the episode ends: the first ``found`` with one claim, see
+    :class:`Walk`, or after MAX_ACTIONS) and judge."""
+    walk = Walk(start, grid, target_xy, visible, spec, claims)
+    for a in actions:
+        if walk.done:
             break
-    dist = float(np.linalg.norm(pose.xy - np.asarray(target_xy, float)[:2]))
-    seen = bool(found and dist <= SUCCESS_DISTANCE_M and visible(pose))
-    return Outcome(seen, found, dist, seen, n, path, tuple(poses))
+        walk.act(a)
+    return walk.outcome()

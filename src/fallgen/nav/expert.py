@@ -116,9 +116,18 @@ def expert(start: Pose, grid: OccupancyGrid, target, line_of_sight: Callable[[Po
     object's centre, room frame), and the optimum references of SPL and SNA. Poses farther
     than ``max_view_m`` from the object (camera to centre) are not tried: a small object there
     covers too few pixels to be seen (see :func:`max_view_distance`)."""
-    plan, _ = _search(start, grid, target, spec, 1000, 1, line_of_sight, visible, max_view_m)
+    plan = plan_to_see(start, grid, target, line_of_sight, visible, spec, max_view_m)
     fewest, _ = _search(start, grid, target, spec, 1, 1, line_of_sight, visible, max_view_m)
     return Expert(plan, plan.path_m, min(len(fewest.actions), len(plan.actions)))
+
+
+def plan_to_see(start: Pose, grid: OccupancyGrid, target, line_of_sight: Callable[[Pose], bool],
+                visible: Callable[[Pose], bool], spec: AgentSpec = AgentSpec(),
+                max_view_m: float = math.inf) -> Plan:
+    """The expert's own plan from ``start`` (fewest forward moves, then fewest turns; the
+    first search of :func:`expert`), without the fewest-actions search."""
+    plan, _ = _search(start, grid, target, spec, 1000, 1, line_of_sight, visible, max_view_m)
+    return plan
 
 
 def max_view_distance(extents_m, pixels: int, image_px: int = 300) -> float:

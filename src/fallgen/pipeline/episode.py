@@ -37,17 +37,15 @@ from fallgen.audio.fall import FallRenderer
 from fallgen.audio.mix import Binaural, BinauralClip, Listener
 from fallgen.audio.room import RirSettings, RoomAcoustics
 from fallgen.nav.agent import HEADINGS, VISIBLE_PIXELS, AgentSpec, Pose, run
-from fallgen.nav.expert import Expert, NoPath, expert, max_view_distance
-from fallgen.nav.occupancy import (BOX_SIGNS, OccupancyGrid, geom_box_corners, occupancy,
-                                   room_samples)
+from fallgen.nav.expert import Expert, NoPath
+from fallgen.nav.occupancy import OccupancyGrid
 from fallgen.physics.drop import _instance, replay
 from fallgen.physics.events import FallEvent
-from fallgen.vision.camera import (WIDTH, EgoCamera, View,
-                                   world_category_labels)
+from fallgen.pipeline.settled import SettledRoom
+from fallgen.vision.camera import WIDTH, EgoCamera, View, world_category_labels
 from fallgen.vision.gl import GLContext
-from fallgen.vision.sight import line_of_sight
 from fallgen.world.library import World
-from fallgen.world.scene import VIEW, AgentBody, PlacedObject, build_scene
+from fallgen.world.scene import AgentBody
 
 MIN_SPAWN_DISTANCE_M = 2.0
 SPAWN_CLEARANCE_M = 0.05
@@ -122,31 +120,15 @@ class EpisodeMaker:
 
         rng = episode_rng(root_seed, episode_id)
         world, spec = self.world, self.spec
-        variant = world.variant(event.room_variant)
-        target = _instance(world, event.target)
-        settled = [PlacedObject("target", target, tuple(event.settle_pos),
-                                tuple(event.settle_quat), free=False)]
-        settled += [PlacedObject(f"d{k}", _instance(world, p.object), p.pos, p.quat, free=False)
-                    for k, p in enumerate(event.distractors)]
-        settled += [PlacedObject(f"o{k}", _instance(world, p.object), p.pos, p.quat, free=False)
-                    for k, p in enumerate(event.occluders)]
-        scene = build_scene(variant, world.materials, settled, settings=VIEW)
-        data = scene.data()
-        mujoco.mj_forward(scene.model, data)
-        cats = {o.name: o.instance.category for o in settled}
         if self._gl is None:
             self._gl = GLContext(WIDTH)
-        camera = EgoCamera(scene, cats, spec, labels=self.labels, context=self._gl)
+        settled = SettledRoom(world, event, self._gl, self.labels, spec,
+                           self._room_samples.get(event.room_variant))
+        self._room_samples[event.room_variant] = settled.static
+        variant, target = settled.variant, _instance(world, event.target)
+        data, camera, grid = settled.data, settled.camera, settled.grid
+        centre = settled.centre
         try:
-            if variant.id not in self._room_samples:
-                self._room_samples[variant.id] = room_samples(scene, data,
-                                                              band_high_m=spec.height_m)
-            grid = occupancy(scene, data, band_high_m=spec.height_m,
-                             static=self._room_samples[variant.id])
-            lo, hi = _target_box(scene, data)
-            centre = (lo + hi) / 2
-            # where a line of sight may reach: the centre and the corners pulled 25 % inward
-            points = np.vstack([centre, centre + 0.75 * BOX_SIGNS * (hi - lo) / 2])
             lap("maps")
             drawn, sees = self._spawn(rng, grid, centre, camera, data)
             if spawn is None:
@@ -158,29 +140,13 @@ class EpisodeMaker:
             # attempt in six) is skipped before its replay, sound and first view are made (the
             # planner draws nothing from rng, so the episode is the same in either order).
             # Both searches of the expert and the simulator's check ask about the same poses:
-            # each render and each set of ray casts is made once (the scene is static).
-            seen: dict[Pose, bool] = {}
-            clear: dict[tuple[float, float], bool] = {}
-
-            def visible(p: Pose) -> bool:
-                if p not in seen:
-                    seen[p] = camera.shows(data, p, VISIBLE_PIXELS)
-                return seen[p]
-
-            def clear_at(p: Pose) -> bool:
-                if (p.x, p.y) not in clear:
-                    clear[p.x, p.y] = line_of_sight(
-                        scene.model, data, scene.geom_owner,
-                        np.array([p.x, p.y, spec.camera_height_m]), points, (lo, hi))
-                return clear[p.x, p.y]
-
+            # the room renders and ray casts each once (the scene is static).
             try:
-                ex = expert(spawn, grid, centre, clear_at, visible, spec,
-                            max_view_distance(hi - lo, VISIBLE_PIXELS))
+                ex = settled.expert(spawn)
             except NoPath as e:
                 raise Skip("no_path", str(e)) from None
             lap("planning")
-            out = run(spawn, ex.plan.actions, grid, centre, visible, spec)
+            out = run(spawn, ex.plan.actions, grid, centre, settled.visible, spec)
             if not out.success:
                 raise ExpertFailure(f"episode {episode_id}: expert fails ({out})")
             lap("planning")
@@ -208,7 +174,7 @@ class EpisodeMaker:
                 shots = tuple(camera.render(data, p) for p in out.poses)
             lap("render")
         finally:
-            camera.close()
+            settled.close()
         return Episode(episode_id, event, spawn, sees, clip, view, grid, grid.cell(centre), ex,
                        out.spl(ex.shortest_m), out.sna(ex.fewest_actions), out.poses, shots, t)
 
@@ -261,15 +227,6 @@ def quat_angle_deg(a, b) -> float:
     """Angle (degrees) of the rotation between two unit quaternions (w, x, y, z)."""
     d = abs(float(np.dot(np.asarray(a, float), np.asarray(b, float))))
     return math.degrees(2 * math.acos(min(1.0, d)))
-
-
-def _target_box(scene, data) -> tuple[np.ndarray, np.ndarray]:
-    """The target's world bounding box (over its geoms' oriented boxes)."""
-    m = scene.model
-    b = scene.object_body["target"]
-    pts = np.vstack([geom_box_corners(m, data, g) for g in range(m.ngeom)
-                     if m.geom_bodyid[g] == b])
-    return pts.min(0), pts.max(0)
 
 
 def _with_contacts(event: FallEvent, contacts) -> FallEvent:

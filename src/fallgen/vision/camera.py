@@ -162,18 +162,24 @@ class EgoCamera:
         return cam
 
     def render(self, data: mujoco.MjData, pose: Pose, what: str = "all") -> View:
-        """The view from ``pose``; ``what="segmentation"`` renders only the segmentation."""
+        """The view from ``pose``: ``what="all"`` (RGB, depth and segmentation: two passes),
+        ``"rgb"`` (the colour pass only), ``"depth"`` (depth and segmentation: one pass) or
+        ``"segmentation"``. What was not rendered is an empty array."""
+        if what not in ("all", "rgb", "depth", "segmentation"):
+            raise ValueError(f"what={what!r}: one of all, rgb, depth, segmentation")
         f, cam = self.frames, self.camera(pose)
-        rgb = depth = None
-        if what == "all":
+        rgb = depth = geom = None
+        if what in ("all", "rgb"):
             rgb = f.rgb(data, cam)
+        if what in ("all", "depth"):
             depth, geom = f.depth_and_geoms(data, cam)
-        else:
+        elif what == "segmentation":
             geom = f.geoms(data, cam)
-        inst, cat = self._inst[geom], self._cat[geom]
-        empty = np.zeros((0, 0), np.float32)
+        none = np.zeros((0, 0), np.int16)
         return View(rgb if rgb is not None else np.zeros((0, 0, 3), np.uint8),
-                    depth if depth is not None else empty, inst, cat, self.instances)
+                    depth if depth is not None else np.zeros((0, 0), np.float32),
+                    self._inst[geom] if geom is not None else none,
+                    self._cat[geom] if geom is not None else none, self.instances)
 
     def pixels_of(self, data: mujoco.MjData, pose: Pose, owner: str = "obj:target") -> int:
         """How many pixels of the view from ``pose`` show ``owner``: 0 without rendering when

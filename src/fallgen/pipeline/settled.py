@@ -1,0 +1,136 @@
+"""The settled room of a fall event, as the agent sees and moves in it.
+
+One definition for the generation of an episode (:mod:`fallgen.pipeline.episode`: its spawn,
+first view, expert and check) and for the environment that replays it (:mod:`fallgen.env`):
+the compiled scene with the target where it came to rest and the distractors and occluders where
+they stood, its occupancy grid in the robot's height band, the agent's camera, and the two tests
+the expert and the judge ask about poses: whether the object is visible (at least
+``VISIBLE_PIXELS`` segmentation pixels) and whether a line of sight from the camera reaches it.
+Both answers are kept per pose (the scene is static), so a pose is rendered or ray cast once.
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+
+from fallgen.nav.agent import VISIBLE_PIXELS, AgentSpec, Pose
+from fallgen.nav.expert import Expert, Plan, expert, max_view_distance, plan_to_see
+from fallgen.nav.occupancy import BOX_SIGNS, OccupancyGrid, geom_box_corners, occupancy, \
+    room_samples
+from fallgen.physics.drop import _instance
+from fallgen.physics.events import FallEvent
+from fallgen.vision.camera import EgoCamera
+from fallgen.vision.gl import GLContext
+from fallgen.vision.sight import line_of_sight
+from fallgen.world.library import World
+from fallgen.world.scene import VIEW, PlacedObject, build_scene
+
+
+def settled_objects(world: World, event: FallEvent) -> list[PlacedObject]:
+    """The event's objects at rest: the target (``target``), the distractors (``d0``, ...) and
+    the occluders (``o0``, ...), all fixed."""
+    out = [PlacedObject("target", _instance(world, event.target), tuple(event.settle_pos),
+                        tuple(event.settle_quat), free=False)]
+    out += [PlacedObject(f"d{k}", _instance(world, p.object), p.pos, p.quat, free=False)
+            for k, p in enumerate(event.distractors)]
+    out += [PlacedObject(f"o{k}", _instance(world, p.object), p.pos, p.quat, free=False)
+            for k, p in enumerate(event.occluders)]
+    return out
+
+
+class SettledRoom:
+    """The settled room of ``event``, compiled, with its grid and camera (drawn in ``context``,
+    a long-lived :class:`GLContext` of the camera's size). ``labels``: the dataset's category
+    table; ``static``: the room variant's own occupancy layer (:func:`room_samples`), when the
+    caller keeps it between episodes of one variant. Close it to free its render context."""
+
+    def __init__(self, world: World, event: FallEvent, context: GLContext,
+                 labels: tuple[str, ...], spec: AgentSpec = AgentSpec(),
+                 static: np.ndarray | None = None) -> None:
+        self.event, self.spec = event, spec
+        self.variant = world.variant(event.room_variant)
+        objects = settled_objects(world, event)
+        self.scene = build_scene(self.variant, world.materials, objects, settings=VIEW)
+        self.data = self.scene.data()
+        mujoco.mj_forward(self.scene.model, self.data)
+        self.object_categories = {o.name: o.instance.category for o in objects}
+        self.camera = EgoCamera(self.scene, self.object_categories, spec, labels=labels,
+                                context=context)
+        try:
+            if static is None:
+                static = room_samples(self.scene, self.data, band_high_m=spec.height_m)
+            self.static = static
+            self.grid: OccupancyGrid = occupancy(self.scene, self.data,
+                                                 band_high_m=spec.height_m, static=static)
+            self.lo, self.hi = target_box(self.scene, self.data)
+        except BaseException:
+            self.camera.close()
+            raise
+        #: the object's centre (its bounding box's): what distances are measured to
+        self.centre = (self.lo + self.hi) / 2
+        # where a line of sight may reach: the centre and the corners pulled 25 % inward
+        self._points = np.vstack([self.centre,
+                                  self.centre + 0.75 * BOX_SIGNS * (self.hi - self.lo) / 2])
+        self._seen: dict[Pose, bool] = {}
+        self._clear: dict[tuple[float, float], bool] = {}
+        #: farthest camera-to-centre distance from which the object can cover enough pixels
+        self.max_view_m = max_view_distance(self.hi - self.lo, VISIBLE_PIXELS)
+
+    def close(self) -> None:
+        self.camera.close()
+
+    def visible(self, pose: Pose) -> bool:
+        """Whether at least ``VISIBLE_PIXELS`` pixels of the view from ``pose`` show the
+        object (rendered once per pose)."""
+        seen = self._seen.get(pose)
+        if seen is None:
+            seen = self._seen[pose] = self.camera.shows(self.data, pose, VISIBLE_PIXELS)
+        return seen
+
+    def note_visible(self, pose: Pose, pixels: int) -> bool:
+        """Record the object's pixel count in a full segmentation render from ``pose`` (the
+        count :meth:`visible` settles on: no second render needed); whether it is visible."""
+        seen = self._seen[pose] = pixels >= VISIBLE_PIXELS
+        return seen
+
+    def clear(self, pose: Pose) -> bool:
+        """Whether a line of sight from the camera at ``pose`` reaches the object."""
+        key = (pose.x, pose.y)
+        ok = self._clear.get(key)
+        if ok is None:
+            ok = self._clear[key] = line_of_sight(
+                self.scene.model, self.data, self.scene.geom_owner,
+                np.array([pose.x, pose.y, self.spec.camera_height_m]), self._points,
+                (self.lo, self.hi))
+        return ok
+
+    def expert(self, start: Pose) -> Expert:
+        """The expert's plan from ``start`` and the references of SPL and SNA (raises
+        :class:`fallgen.nav.expert.NoPath`)."""
+        return expert(start, self.grid, self.centre, self.clear, self.visible, self.spec,
+                      self.max_view_m)
+
+    def plan(self, start: Pose) -> Plan:
+        """The expert's own plan from ``start`` (fewest forward moves, then fewest turns)
+        without the fewest-actions search: what an oracle of the next action needs."""
+        return plan_to_see(start, self.grid, self.centre, self.clear, self.visible, self.spec,
+                           self.max_view_m)
+
+    def object_distance_m(self, pose: Pose) -> float:
+        """Horizontal distance from ``pose`` to the object's centre."""
+        return math.hypot(pose.x - float(self.centre[0]), pose.y - float(self.centre[1]))
+
+
+def target_box(scene, data) -> tuple[np.ndarray, np.ndarray]:
+    """The target's world bounding box (over its geoms' oriented boxes)."""
+    m = scene.model
+    b = scene.object_body["target"]
+    pts = np.vstack([geom_box_corners(m, data, g) for g in range(m.ngeom)
+                     if m.geom_bodyid[g] == b])
+    return pts.min(0), pts.max(0)
+
+
+__all__ = ["SettledRoom", "settled_objects", "target_box"]
