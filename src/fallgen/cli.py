@@ -675,6 +675,17 @@ def _listener(text: str):
     return xyz
 
 
+# --- the benchmark: evaluate, export-expert (cli_benchmark.py) ---------------------------------
+
+def _register_benchmark() -> None:
+    from fallgen import cli_benchmark
+
+    cli_benchmark.register(app, console)
+
+
+_register_benchmark()
+
+
 # --- entry point --------------------------------------------------------------------------------
 
 def main(argv: list[str] | None = None) -> None:

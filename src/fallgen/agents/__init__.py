@@ -1,0 +1,44 @@
+"""Reference agents of the benchmark, and the protocol every agent follows (:mod:`.base`).
+
+- ``expert``: the environment's shortest-path oracle (SR = SPL = 1 on every episode);
+- ``random``: uniform random actions (the floor);
+- ``modular``: the paper's modular planning agent (a map from depth and segmentation, A*,
+  frontier exploration), with oracle switches ``segmentation``, ``category``, ``location``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection, Sequence
+
+from fallgen.agents.base import Agent, agent_sensors, reset_agent
+
+BASELINES = ("expert", "random", "modular")
+ORACLES = ("segmentation", "category", "location")
+
+
+def make_baseline(name: str, category_labels: Sequence[str] = (),
+                  object_categories: Collection[str] = (),
+                  oracles: Collection[str] | None = None):
+    """The reference agent ``name``; ``category_labels`` (the dataset's segmentation table)
+    and ``object_categories`` (the target categories) for the modular agent, with ``oracles``
+    (default: all three)."""
+    if name == "expert":
+        from fallgen.agents.expert import ExpertAgent
+
+        return ExpertAgent()
+    if name == "random":
+        from fallgen.agents.random_agent import RandomAgent
+
+        return RandomAgent()
+    if name == "modular":
+        from fallgen.agents.modular import ModularAgent
+
+        oracles = ORACLES if oracles is None or not len(oracles) else tuple(oracles)
+        bad = sorted(set(oracles) - set(ORACLES))
+        if bad:
+            raise ValueError(f"unknown oracle {bad[0]!r}: {', '.join(ORACLES)}")
+        return ModularAgent(category_labels, object_categories, oracles=oracles)
+    raise ValueError(f"unknown baseline {name!r}: {', '.join(BASELINES)}")
+
+
+__all__ = ["Agent", "BASELINES", "ORACLES", "make_baseline", "agent_sensors", "reset_agent"]

@@ -1,0 +1,270 @@
+"""The benchmark's commands (``fallgen evaluate``, ``fallgen export-expert``): a thin layer over
+:mod:`fallgen.evaluation`, registered on the main app by :mod:`fallgen.cli`."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from fallgen.errors import InputError
+
+#: Message starts of the selection's ValueErrors -> the option they are about.
+_FIELDS = (("split", "--split"), ("room_kind", "--room-kind"), ("no episode of category",
+           "--category"), ("no episode ", "--episodes"), ("cross_scene", "--cross-scene"),
+           ("no actions", "--actions"), ("rank", "--workers"))
+
+
+def _field(message: str, default: str) -> str:
+    for start, option in _FIELDS:
+        if message.startswith(start):
+            return option
+    return default
+
+
+def parse_ids(text: str | None) -> list[int] | None:
+    """``"3,7,10-12"`` -> [3, 7, 10, 11, 12]; None for None."""
+    if text is None:
+        return None
+    ids: list[int] = []
+    try:
+        for part in text.split(","):
+            part = part.strip()
+            if not part:
+                continue
+            if "-" in part[1:]:
+                a, b = part.split("-", 1) if not part.startswith("-") else (part, "")
+                ids += list(range(int(a), int(b) + 1))
+            else:
+                ids.append(int(part))
+    except ValueError:
+        raise InputError("<command line>", "--episodes", f"{text!r}: expected ids such as "
+                         "3,7,10-12") from None
+    if not ids:
+        raise InputError("<command line>", "--episodes", f"{text!r}: no episode id")
+    return ids
+
+
+def _open(dataset: Path):
+    from fallgen.dataset.reader import Dataset
+
+    try:
+        return Dataset(dataset)
+    except FileNotFoundError as e:
+        raise InputError(dataset, "data/", str(e).split(": ", 1)[-1]) from None
+
+
+def _agent_ref(agent: str | None, agent_kwargs: str | None, actions: Path | None,
+               baseline: str | None, oracles: str | None):
+    import json
+
+    from fallgen.agents import BASELINES, ORACLES
+    from fallgen.evaluation.evaluate import load_actions
+    from fallgen.evaluation.runner import AgentRef, load_factory
+
+    given = [n for n, v in (("--agent", agent), ("--actions", actions), ("--baseline", baseline))
+             if v is not None]
+    if len(given) != 1:
+        raise InputError("<command line>", "--agent", "give exactly one of --agent "
+                         "module:factory, --actions FILE, --baseline NAME"
+                         + (f" (got {', '.join(given)})" if given else ""))
+    if oracles is not None and baseline != "modular":
+        raise InputError("<command line>", "--oracles", "only for --baseline modular")
+    if agent is not None:
+        kwargs = {}
+        if agent_kwargs:
+            try:
+                kwargs = json.loads(agent_kwargs)
+            except json.JSONDecodeError:
+                kwargs = None
+            if not isinstance(kwargs, dict):
+                raise InputError("<command line>", "--agent-kwargs", "expected a JSON object")
+        try:
+            load_factory(agent)  # fail here, in one line, not in a worker
+        except ValueError as e:
+            raise InputError("<command line>", "--agent", str(e)) from None
+        return AgentRef("factory", agent, kwargs=kwargs)
+    if actions is not None:
+        try:
+            return AgentRef("actions", actions=load_actions(actions))
+        except ValueError as e:
+            file, _, msg = str(e).partition(": ")
+            raise InputError(file, "actions", msg) from None
+    if baseline not in BASELINES:
+        raise InputError("<command line>", "--baseline", f"{baseline!r}: one of "
+                         f"{', '.join(BASELINES)}")
+    chosen: tuple[str, ...] = ()
+    if baseline == "modular":
+        chosen = ORACLES if oracles is None else tuple(o.strip() for o in oracles.split(",")
+                                                       if o.strip() and o.strip() != "none")
+        bad = sorted(set(chosen) - set(ORACLES))
+        if bad:
+            raise InputError("<command line>", "--oracles", f"{bad[0]!r}: choose from "
+                             f"{', '.join(ORACLES)} (or none)")
+        chosen = tuple(o for o in ORACLES if o in chosen)
+    return AgentRef("baseline", baseline, oracles=chosen)
+
+
+def register(app: typer.Typer, console: Console) -> None:
+    @app.command()
+    def evaluate(
+        dataset: Annotated[Path, typer.Argument(help="A dataset directory.")],
+        out: Annotated[Path, typer.Option("--out", "-o", help="Directory for episodes.jsonl "
+                                          "and summary.json.")],
+        split: Annotated[Optional[str], typer.Option(
+            help="train, validation, test, or all (default: test; all the episodes given "
+            "by --episodes or --actions when either is).", show_default=False)] = None,
+        room_kind: Annotated[Optional[str], typer.Option(
+            help="kitchen or study only.")] = None,
+        cross_scene: Annotated[Optional[str], typer.Option(
+            help="kitchen_to_study (test on the study rooms) or study_to_kitchen (on the "
+            "kitchens): the paper's Table 2.")] = None,
+        episodes: Annotated[Optional[str], typer.Option(
+            help="Only these episode ids, e.g. 3,7,10-12.")] = None,
+        category: Annotated[Optional[str], typer.Option(
+            help="Only these object categories (comma-separated).")] = None,
+        agent: Annotated[Optional[str], typer.Option(
+            help="Your agent: module:factory, a callable returning an object with reset() "
+            "and act(obs) -> int (see README).")] = None,
+        agent_kwargs: Annotated[Optional[str], typer.Option(
+            help="JSON object of keyword arguments for the factory.")] = None,
+        actions: Annotated[Optional[Path], typer.Option(
+            help="Re-score action sequences: a JSON object of episode id -> list of actions, or an "
+            "episodes.jsonl.")] = None,
+        baseline: Annotated[Optional[str], typer.Option(
+            help="A reference agent: expert, random, modular.")] = None,
+        oracles: Annotated[Optional[str], typer.Option(
+            help="The modular agent's oracles: any of segmentation,category,location, or "
+            "none (default: all three).")] = None,
+        workers: Annotated[Optional[int], typer.Option(
+            min=1, help="Worker processes (default: all cores).", show_default=False)] = None,
+        claims: Annotated[int, typer.Option(min=1, help="found claims allowed (2: the "
+                                            "original challenge).")] = 1,
+        reward: Annotated[str, typer.Option(help="paper or geodesic (the return only).")
+                          ] = "paper",
+        seed: Annotated[int, typer.Option(help="Seeds the agents' per-episode "
+                                          "generators.")] = 0,
+        data_dir: Annotated[Optional[Path], typer.Option(
+            "--data-dir", help="World data the dataset was built with (default: built-in).",
+            show_default=False)] = None,
+    ) -> None:
+        """Score an agent on a dataset's episodes: success, SPL, SNA (95 % intervals) in the
+        paper's Table 1 layout; every episode in OUT/episodes.jsonl, the summary in
+        OUT/summary.json."""
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, \
+            TimeElapsedColumn
+
+        from fallgen.evaluation.evaluate import evaluate as run, write
+        from fallgen.evaluation.scores import PAPER_TABLE1, PAPER_TABLE2
+
+        _open(dataset)
+        ids = parse_ids(episodes)
+        ref = _agent_ref(agent, agent_kwargs, actions, baseline, oracles)
+        if reward not in ("paper", "geodesic"):
+            raise InputError("<command line>", "--reward", f"{reward!r}: paper or geodesic")
+        cats = [c.strip() for c in category.split(",") if c.strip()] if category else None
+        n_workers = workers if workers is not None else (os.cpu_count() or 1)
+        if split is None:
+            split = "all" if ids is not None or ref.kind == "actions" else "test"
+            if ref.kind == "actions" and ids is None and cross_scene is None \
+                    and room_kind is None and not cats:
+                ids = sorted(ref.actions or {})  # the file's episodes
+        with Progress(TextColumn("evaluate"), BarColumn(), MofNCompleteColumn(),
+                      TimeElapsedColumn(), console=console) as bar:
+            task = bar.add_task("", total=None)
+            try:
+                ev = run(dataset, ref, split=None if split == "all" else split,
+                         room_kind=room_kind, cross_scene=cross_scene, categories=cats,
+                         episode_ids=ids, workers=n_workers, claims=claims, reward=reward,
+                         seed=seed, data_dir=data_dir,
+                         on_selected=lambda n: bar.update(task, total=n),
+                         progress=lambda n: bar.update(task, advance=n))
+            except ValueError as e:
+                raise InputError("<command line>", _field(str(e), "--agent"), str(e)) from None
+            except (FileNotFoundError, KeyError) as e:
+                raise InputError(dataset, "data/", str(e).strip("'\"")) from None
+        paths = write(ev, out)
+        s = ev.summary
+        title = f"{s['agent']} on {dataset}: {s['n']} episodes" + (
+            f" ({cross_scene})" if cross_scene else f" (split {split}"
+            + (f", {room_kind}" if room_kind else "") + ")")
+        t = Table("Method", "SR", "SPL", "SNA", "soft SPL", title=title)
+        ci = s["ci95"]
+        t.add_row(s["agent"], *[f"{s[m]:.3f} [{ci[m][0]:.2f}, {ci[m][1]:.2f}]"
+                                for m in ("success", "spl", "sna", "soft_spl")])
+        ref_rows = [PAPER_TABLE2[cross_scene]] if cross_scene else PAPER_TABLE1
+        for name, sr, spl, sna in ref_rows:
+            t.add_row(f"[dim]paper: {name}[/dim]", f"[dim]{sr:.2f}[/dim]", f"[dim]{spl:.2f}[/dim]",
+                      f"[dim]{sna:.2f}[/dim]", "")
+        console.print(t)
+        kinds = Table("room kind", "n", "SR", "SPL", "SNA")
+        for k, v in s["by_room_kind"].items():
+            kinds.add_row(k, str(v["n"]), f"{v['success']:.3f}", f"{v['spl']:.3f}",
+                          f"{v['sna']:.3f}")
+        console.print(kinds)
+        o = s["outcomes"]
+        console.print(f"outcomes: found {o['found']}, wrong found {o['wrong_found']}, timeout "
+                      f"{o['timeout']}; {s['mean_steps']:.1f} actions on average; "
+                      f"object seen in {s['seen_share']:.0%} of episodes")
+        console.print(f"{paths[0]}, {paths[1]}")
+
+    @app.command("export-expert")
+    def export_expert(
+        dataset: Annotated[Path, typer.Argument(help="A dataset directory.")],
+        out: Annotated[Path, typer.Option("--out", "-o", help="Output directory.")],
+        split: Annotated[Optional[str], typer.Option(
+            help="train, validation, test, or all (default: train; all the episodes given by "
+            "--episodes when it is).", show_default=False)] = None,
+        room_kind: Annotated[Optional[str], typer.Option(help="kitchen or study only.")] = None,
+        episodes: Annotated[Optional[str], typer.Option(
+            help="Only these episode ids, e.g. 3,7,10-12.")] = None,
+        sensors: Annotated[str, typer.Option(
+            help="Observations to keep (comma-separated; oracle sensors allowed).")
+        ] = "rgb,depth,audio,pose",
+        fmt: Annotated[str, typer.Option("--format", help="hdf5 (OUT/expert.h5) or minari "
+                                         "(a Minari dataset under OUT).")] = "hdf5",
+        dataset_id: Annotated[str, typer.Option(help="Minari dataset id.")
+                              ] = "fallgen/expert-v0",
+        data_dir: Annotated[Optional[Path], typer.Option(
+            "--data-dir", help="World data the dataset was built with (default: built-in).",
+            show_default=False)] = None,
+    ) -> None:
+        """The expert's trajectories with every step's observation, for imitation learning:
+        each episode's expert_actions replayed through the environment."""
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, \
+            TimeElapsedColumn
+
+        from fallgen.env.fallen_objects import SENSORS
+        from fallgen.env.source import select
+        from fallgen.evaluation.trajectories import FORMATS, export_expert as run
+
+        ds = _open(dataset)
+        chosen = tuple(s.strip() for s in sensors.split(",") if s.strip())
+        bad = [s for s in chosen if s not in SENSORS]
+        if bad or not chosen:
+            raise InputError("<command line>", "--sensors", f"{(bad or [sensors])[0]!r}: "
+                             f"choose from {', '.join(SENSORS)}")
+        if fmt not in FORMATS:
+            raise InputError("<command line>", "--format", f"{fmt!r}: one of "
+                             f"{', '.join(FORMATS)}")
+        wanted = parse_ids(episodes)
+        if split is None:
+            split = "all" if wanted is not None else "train"
+        try:
+            ids = select(ds, None if split == "all" else split, room_kind, None, wanted)
+        except ValueError as e:
+            raise InputError("<command line>", _field(str(e), "--split"), str(e)) from None
+        with Progress(TextColumn("export"), BarColumn(), MofNCompleteColumn(),
+                      TimeElapsedColumn(), console=console) as bar:
+            task = bar.add_task("", total=len(ids))
+            try:
+                path = run(dataset, out, ids, chosen, fmt, dataset_id, data_dir,
+                           progress=lambda n: bar.update(task, advance=n))
+            except ValueError as e:
+                raise InputError(dataset, "expert_actions" if "expert" in str(e) else
+                                 "--format", str(e)) from None
+        console.print(f"{len(ids)} expert trajectories -> {path}")
