@@ -49,6 +49,7 @@ bench: setup
 		| tee build/bench-room.json
 	$(PY) bench/generate_bench.py | tee build/bench-generate.json
 	$(PY) bench/build_bench.py | tee build/bench-build.json
+	$(PY) bench/env_bench.py --dataset build/smoke | tee build/bench-env.json
 	$(PY) bench/report.py build
 
 ## bench-full: the paper-size build itself, timed (wall per phase, CPU, each worker's peak

@@ -44,6 +44,13 @@ def main() -> None:
         if "one_worker" in f:
             head["full_build_generate_speedup_workers"] = f["one_worker"]["speedup_of_workers"]
             head["full_build_same_bytes_1_vs_n_workers"] = f["one_worker"]["same_bytes"]
+    e = parts.get("env", {})
+    if e:  # the benchmark's environment
+        head["env_steps_per_s_rgb_depth"] = e["rgb_depth"]["steps_per_s"]
+        head["env_steps_per_s_rgb_depth_no_cache"] = e["rgb_depth_no_cache"]["steps_per_s"]
+        head["env_vector_speedup_2_workers"] = e["vector"]["speedup"]
+        head["env_peak_worker_mb"] = e["vector"]["peak_worker_mb"]
+        head["env_ratio_vs_tdw_published"] = e["ratio_vs_tdw_published"]
     for name in ("impact", "room"):
         r = parts.get(name, {})
         head.update({f"{name}_{k}": v for k, v in r.items()

@@ -1,0 +1,183 @@
+"""Speed of the benchmark's environment on this machine. Prints one JSON line.
+
+    python bench/env_bench.py [--dataset build/smoke] [--steps 2000] [--repeats 2]
+
+On a built dataset (default ``build/smoke``, made with ``fallgen build -c configs/smoke.toml``
+when missing; ``--dataset build/full`` for the paper-size rooms):
+
+1. one environment in this process, an agent walking at random (uniform over the five motion
+   and camera actions, never ``found``, seeded; episodes of 200 actions, then the next): env
+   steps per second for ``rgb + depth`` (the goal: >= 100 a second on one core), for the basic
+   sensors (+ audio, pose) and with every oracle (+ category segmentation, category, object
+   position, the expert's next action), each with the per-episode view cache and without it
+   (every step rendered: the cost of a view that was never seen), and the share of steps the
+   cache served; ``reset`` (the settled room compiled, its grid, the step-0 views) separately;
+2. ``fallgen.env.make_vec`` with 1 and with 2 worker processes (AsyncVectorEnv, shared memory,
+   one GL context per worker), rgb + depth, alternating (``--repeats`` pairs; the VM's speed
+   drifts): the throughput of 2 workers over 1 (goal >= 1.8x) and each worker's peak resident
+   memory (goal < 1 GB);
+3. against the original: TDW's Magnebot environment ran ~4-7 actions a second
+   (``shared/design/benchmark.md``; it needs Unity and a display, not runnable here), so the
+   ratio is to that published figure, named as such.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+TDW_ACTIONS_PER_S = (4.0, 7.0)  # published, not measured here
+RGB_DEPTH = ("rgb", "depth")
+BASIC = ("rgb", "depth", "audio", "pose")
+ORACLES = BASIC + ("category_seg", "object_category", "object_position", "expert_action")
+
+
+def _dataset(path: Path) -> Path:
+    if not (path / "data").is_dir():
+        subprocess.run([sys.executable, "-m", "fallgen", "build", "-c",
+                        str(REPO / "configs" / "smoke.toml"), "--out", str(path)], check=True,
+                       stdout=subprocess.DEVNULL)
+    return path
+
+
+def walk(env, steps: int, seed: int) -> dict:
+    """``steps`` env steps of a random walk; seconds spent in step() and in reset()."""
+    import numpy as np
+
+    rng = np.random.default_rng(seed)
+    t_step = t_reset = 0.0
+    n = resets = 0
+    t = time.perf_counter()
+    env.reset(seed=seed)
+    t_reset += time.perf_counter() - t
+    resets += 1
+    while n < steps:
+        a = int(rng.integers(5))
+        t = time.perf_counter()
+        _, _, term, trunc, _ = env.step(a)
+        t_step += time.perf_counter() - t
+        n += 1
+        if term or trunc:
+            t = time.perf_counter()
+            env.reset()
+            t_reset += time.perf_counter() - t
+            resets += 1
+    return {"steps": n, "step_s": t_step, "resets": resets, "reset_s": t_reset}
+
+
+def one_process(dataset: Path, sensors: tuple[str, ...], steps: int, cache: int) -> dict:
+    from fallgen.env import FallenObjectsEnv
+
+    env = FallenObjectsEnv(dataset, sensors=sensors, view_cache=cache, order="shuffle")
+    hits = {"n": 0, "hit": 0}
+    view = env._view
+
+    def counted(pose):  # the share of steps the cache served
+        key = (round(pose.x, 6), round(pose.y, 6), pose.heading, pose.tilt_deg)
+        hits["n"] += 1
+        hits["hit"] += key in env._views
+        return view(pose)
+
+    env._view = counted
+    try:
+        walk(env, 50, 99)  # warm: GL context, shaders, first rooms
+        r = walk(env, steps, 1)
+    finally:
+        env.close()
+    return {"steps_per_s": round(r["steps"] / r["step_s"], 1),
+            "ms_per_step": round(1e3 * r["step_s"] / r["steps"], 2),
+            "ms_per_reset": round(1e3 * r["reset_s"] / r["resets"], 1),
+            "steps_per_s_with_resets": round(r["steps"] / (r["step_s"] + r["reset_s"]), 1),
+            "cache_served": round(hits["hit"] / max(hits["n"], 1), 3)}
+
+
+def _peak_mb(pid: int) -> float:
+    try:
+        with open(f"/proc/{pid}/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024
+    except OSError:
+        pass
+    return float("nan")
+
+
+def vector(dataset: Path, num_envs: int, steps_per_env: int) -> dict:
+    import numpy as np
+
+    import fallgen.env
+
+    vec = fallgen.env.make_vec(dataset, num_envs=num_envs, sensors=RGB_DEPTH, order="shuffle")
+    rng = np.random.default_rng(7)
+    try:
+        vec.reset(seed=3)
+        for _ in range(20):  # warm
+            vec.step(rng.integers(5, size=num_envs))
+        t = time.perf_counter()
+        for _ in range(steps_per_env):
+            vec.step(rng.integers(5, size=num_envs))
+        dt = time.perf_counter() - t
+        peaks = [_peak_mb(p.pid) for p in vec.processes]
+    finally:
+        vec.close()
+    return {"steps_per_s": num_envs * steps_per_env / dt, "wall_s": dt, "peak_mb": peaks}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--dataset", type=Path, default=REPO / "build" / "smoke")
+    ap.add_argument("--steps", type=int, default=2000)
+    ap.add_argument("--vec-steps", type=int, default=600, help="steps per environment")
+    ap.add_argument("--repeats", type=int, default=2)
+    a = ap.parse_args()
+    import fallgen  # noqa: F401  (BLAS threads, EGL, before numpy)
+    import mujoco
+
+    ds = _dataset(a.dataset)
+    out: dict = {"dataset": str(ds), "machine": {"cpu": _cpu(), "cores": os.cpu_count(),
+                                                   "python": platform.python_version(),
+                                                   "mujoco": mujoco.__version__}}
+    for name, sensors in (("rgb_depth", RGB_DEPTH), ("basic", BASIC), ("oracles", ORACLES)):
+        out[name] = one_process(ds, sensors, a.steps, 64)
+        out[name + "_no_cache"] = one_process(ds, sensors, a.steps // 2, 0)
+    runs: dict[int, list[dict]] = {1: [], 2: []}
+    for k in range(a.repeats):  # 1, 2, then 2, 1, ...
+        for n in ((1, 2) if k % 2 == 0 else (2, 1)):
+            runs[n].append(vector(ds, n, a.vec_steps))
+    one = sum(r["steps_per_s"] for r in runs[1]) / len(runs[1])
+    two = sum(r["steps_per_s"] for r in runs[2]) / len(runs[2])
+    rate = out["rgb_depth"]["steps_per_s"]
+    out["vector"] = {"one_worker_steps_per_s": round(one, 1),
+                     "two_workers_steps_per_s": round(two, 1),
+                     "speedup": round(two / one, 2), "goal_speedup": 1.8,
+                     "pairs": [round(b["steps_per_s"] / o["steps_per_s"], 2)
+                               for o, b in zip(runs[1], runs[2])],
+                     "peak_worker_mb": round(max(p for r in runs[2] for p in r["peak_mb"]), 0),
+                     "goal_peak_mb": 1024}
+    out["goal_steps_per_s"] = 100
+    out["meets_goals"] = bool(rate >= 100 and two / one >= 1.8 and
+                              out["vector"]["peak_worker_mb"] < 1024)
+    out["ratio_vs_tdw_published"] = [round(rate / TDW_ACTIONS_PER_S[1], 1),
+                                     round(rate / TDW_ACTIONS_PER_S[0], 1)]
+    print(json.dumps(out))
+
+
+def _cpu() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor()
+
+
+if __name__ == "__main__":
+    main()
