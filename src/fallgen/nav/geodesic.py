@@ -26,6 +26,34 @@ from scipy.sparse.csgraph import dijkstra
 from fallgen.nav.occupancy import OccupancyGrid
 
 
+def grid_edges(free: np.ndarray, resolution: float
+               ) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray], list[np.ndarray]]:
+    """The graph of the free cells of a 2-D grid: ``idx`` (each free cell's node number, -1
+    elsewhere) and the edges (rows, cols, weights, lists of arrays, both directions):
+    orthogonal and diagonal neighbours, a diagonal step only where both cells beside it are
+    free (no corner is cut), weighted by the distance between the cell centres."""
+    nx, ny = free.shape
+    idx = np.full((nx, ny), -1, np.int64)
+    idx[free] = np.arange(int(free.sum()))
+    rows: list[np.ndarray] = []
+    cols: list[np.ndarray] = []
+    weights: list[np.ndarray] = []
+    for di, dj in ((1, 0), (0, 1), (1, 1), (1, -1)):  # each undirected edge once
+        a = free[max(0, -di):nx - max(0, di), max(0, -dj):ny - max(0, dj)]
+        b = free[max(0, di):nx - max(0, -di) or None, max(0, dj):ny - max(0, -dj) or None]
+        ok = a & b
+        if di and dj:  # diagonal: both cells beside the step free too
+            side1 = free[max(0, di):nx - max(0, -di) or None, max(0, -dj):ny - max(0, dj)]
+            side2 = free[max(0, -di):nx - max(0, di), max(0, dj):ny - max(0, -dj) or None]
+            ok &= side1 & side2
+        ia = idx[max(0, -di):nx - max(0, di), max(0, -dj):ny - max(0, dj)][ok]
+        ib = idx[max(0, di):nx - max(0, -di) or None, max(0, dj):ny - max(0, -dj) or None][ok]
+        rows += [ia, ib]
+        cols += [ib, ia]
+        weights += [np.full(2 * len(ia), resolution * math.hypot(di, dj))]
+    return idx, rows, cols, weights
+
+
 class GeodesicField:
     """The geodesic distance from every free cell centre of ``grid`` to ``target_xy``."""
 
@@ -36,25 +64,8 @@ class GeodesicField:
         nx, ny = grid.shape
         free = grid.clearance >= radius_m
         self.free = free
-        idx = np.full((nx, ny), -1, np.int64)
-        idx[free] = np.arange(int(free.sum()))
+        idx, rows, cols, weights = grid_edges(free, r)
         n = int(free.sum())
-        rows, cols, weights = [], [], []
-        # orthogonal and diagonal neighbours (each undirected edge once)
-        for di, dj in ((1, 0), (0, 1), (1, 1), (1, -1)):
-            a = free[max(0, -di):nx - max(0, di), max(0, -dj):ny - max(0, dj)]
-            b = free[max(0, di):nx - max(0, -di) or None, max(0, dj):ny - max(0, -dj) or None]
-            ok = a & b
-            if di and dj:  # diagonal: both cells beside the step free too
-                side1 = free[max(0, di):nx - max(0, -di) or None,
-                             max(0, -dj):ny - max(0, dj)]
-                side2 = free[max(0, -di):nx - max(0, di), max(0, dj):ny - max(0, -dj) or None]
-                ok &= side1 & side2
-            ia = idx[max(0, -di):nx - max(0, di), max(0, -dj):ny - max(0, dj)][ok]
-            ib = idx[max(0, di):nx - max(0, -di) or None, max(0, dj):ny - max(0, -dj) or None][ok]
-            rows += [ia, ib]
-            cols += [ib, ia]
-            weights += [np.full(2 * len(ia), r * math.hypot(di, dj))]
         # two source nodes joined to every free cell within reach: n by the cell's straight
         # distance to the object (the distance to the object), n + 1 by nothing (the distance
         # to where the object is within reach)
@@ -107,4 +118,4 @@ class GeodesicField:
         return float((f + step).min())
 
 
-__all__ = ["GeodesicField"]
+__all__ = ["GeodesicField", "grid_edges"]
