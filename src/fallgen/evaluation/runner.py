@@ -69,15 +69,18 @@ class ReplayAgent:
 
 
 def load_factory(spec: str) -> Callable[..., Any]:
-    """``module:function`` (or ``module:Class``) -> the callable; ValueError naming what is
-    wrong."""
-    mod, sep, attr = spec.partition(":")
+    """``module:function`` (or ``module:Class``, or ``path/to/file.py:Class``) -> the
+    callable; ValueError naming what is wrong."""
+    mod, sep, attr = spec.rpartition(":")
     if not sep or not mod or not attr:
         raise ValueError(f"{spec!r}: expected module:factory (e.g. mypkg.agents:make_agent)")
     try:
-        module = importlib.import_module(mod)
-    except ImportError as e:
-        raise ValueError(f"{spec!r}: cannot import {mod}: {e}") from None
+        if mod.endswith(".py"):
+            module = _load_file(Path(mod))
+        else:
+            module = importlib.import_module(mod)
+    except Exception as e:  # the user's module failed to load: one line, not a traceback
+        raise ValueError(f"{spec!r}: cannot import {mod}: {type(e).__name__}: {e}") from None
     obj = module
     for part in attr.split("."):
         if not hasattr(obj, part):
@@ -86,6 +89,30 @@ def load_factory(spec: str) -> Callable[..., Any]:
     if not callable(obj):
         raise ValueError(f"{spec!r}: {attr} is not callable")
     return obj
+
+
+def _load_file(path: Path):
+    """A module from a Python file (its directory on the import path while it loads)."""
+    import importlib.util
+    import sys
+
+    if not path.is_file():
+        raise ImportError(f"no file {path}")
+    name = "_fallgen_agent_" + path.stem
+    if name in sys.modules:
+        return sys.modules[name]
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    sys.path.insert(0, str(path.resolve().parent))
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        del sys.modules[name]
+        raise
+    finally:
+        sys.path.remove(str(path.resolve().parent))
+    return module
 
 
 def make_agent(ref: AgentRef, category_labels: Sequence[str] = (),
