@@ -37,6 +37,11 @@ SIZE = 400
 #: a point below this height (m) is floor; up to BAND_HIGH_M an obstacle to the robot
 FLOOR_M = 0.04
 BAND_HIGH_M = 1.25
+#: diagonal steps of the planner's graph may pass between two cells where the robot does
+#: not fit (see :meth:`EgoMap.field`)
+CUT_CORNERS = True
+#: how far (m) a surface point is pushed along its horizontal ray before it is binned
+SURFACE_PUSH_M = 0.01
 #: depth beyond this (m) is not mapped (far floor seen at a grazing angle)
 MAX_RANGE_M = 7.0
 #: the focal length of the camera in pixels (square pixels, 90 degrees across 300)
@@ -44,8 +49,9 @@ FOCAL_PX = (WIDTH / 2) / math.tan(math.radians(FOV_DEG / 2))
 #: cells of margin around the planning window
 MARGIN_CELLS = 12
 #: the robot fits where the map's clearance is its radius less this (m): an obstacle is
-#: known to a cell, so the clearance is up to half a cell short (a move that still touches
-#: something is stopped by the simulator and that cell blocked)
+#: known to a cell of a grid turned with the spawn's heading against the room, so the
+#: clearance is up to ~half a cell short of the room's own (a move that still touches
+#: something is stopped by the simulator, and the map remembers it: :meth:`EgoMap.block`)
 FIT_SLACK_M = CELL_M / 2
 
 
@@ -155,7 +161,12 @@ class EgoMap:
         floor = pts[:, 2] < FLOOR_M
         band = ~floor & (pts[:, 2] <= BAND_HIGH_M)
         self.free[i[floor], j[floor]] = True
-        self.obstacle[i[band], j[band]] = True
+        # a surface point is put into the cell behind it (a wall's or a cabinet's face often
+        # lies on a cell boundary, and the true grid's cell is the one it bounds)
+        ray = pts[band, :2] - np.array([pose.x, pose.y])
+        ray /= np.maximum(np.linalg.norm(ray, axis=1, keepdims=True), 1e-9)
+        i, j = self.cells(pts[band, :2] + SURFACE_PUSH_M * ray)
+        self.obstacle[i, j] = True
         self._clear = None
 
     def visit(self, xy: np.ndarray) -> None:
@@ -194,12 +205,12 @@ class EgoMap:
             self._clear = np.where(self.obstacle, 0.0, np.maximum(dist - CELL_M / 2, 0.0))
         return self._clear
 
-    def fits(self, xy: np.ndarray) -> np.ndarray:
+    def fits(self, xy: np.ndarray, slack_m: float = 0.0) -> np.ndarray:
         """(N,) whether the robot's disk fits at points (N, 2) as far as the map knows."""
         i, j = self.cells(np.atleast_2d(xy))
-        return self.clearance[i, j] >= self.spec.radius_m - FIT_SLACK_M
+        return self.clearance[i, j] >= self.spec.radius_m - slack_m
 
-    def move_fits(self, xy: np.ndarray, heading: int) -> bool:
+    def move_fits(self, xy: np.ndarray, heading: int, slack_m: float = FIT_SLACK_M) -> bool:
         """Whether a forward move from ``xy`` along ``heading`` fits (every 5 cm, as the
         simulator checks it), and was not blocked from here before."""
         i, j = self.cells(xy)
@@ -207,7 +218,7 @@ class EgoMap:
             return False
         b = np.asarray(xy) + STEP_M * HEADING_VECTORS[heading]
         pts = np.asarray(xy)[None, :] + STEP_FRACTIONS[:, None] * (b - np.asarray(xy))[None, :]
-        return bool(self.fits(pts).all())
+        return bool(self.fits(pts, slack_m).all())
 
     def window(self, *points: np.ndarray) -> tuple[slice, slice]:
         """The planning window: what is known, and ``points`` (..., 2), with a margin."""
@@ -220,17 +231,20 @@ class EgoMap:
         return (slice(i0, min(int(ii.max()) + MARGIN_CELLS + 1, SIZE)),
                 slice(j0, min(int(jj.max()) + MARGIN_CELLS + 1, SIZE)))
 
-    def field(self, win: tuple[slice, slice], sources: np.ndarray, costs: np.ndarray
-              ) -> np.ndarray:
+    def field(self, win: tuple[slice, slice], sources: np.ndarray, costs: np.ndarray,
+              slack_m: float = FIT_SLACK_M) -> np.ndarray:
         """(SIZE, SIZE) path length (+ the source's cost) to the nearest of the ``sources``
         (a boolean (SIZE, SIZE) mask; ``costs`` the same shape) through cells where the
         robot fits, within ``win``; inf elsewhere."""
-        fit = self.clearance[win] >= self.spec.radius_m - FIT_SLACK_M
+        fit = self.clearance[win] >= self.spec.radius_m - slack_m
         src = sources[win] & fit
         out = np.full((SIZE, SIZE), np.inf)
         if not src.any():
             return out
-        idx, rows, cols, weights = grid_edges(fit, CELL_M)
+        # a diagonal step between two cells where the robot fits may pass cells where it does
+        # not by the cell rule (its clearance there is at least its radius less ~0.07 m): a
+        # gap the robot's 0.25 m moves pass diagonally is a gap here too
+        idx, rows, cols, weights = grid_edges(fit, CELL_M, cut_corners=CUT_CORNERS)
         n = int(fit.sum())
         s = idx[src]
         rows.append(np.full(len(s), n))
@@ -263,7 +277,7 @@ class EgoMap:
         unknown_near[:, 1:] |= ~known[:, :-1]
         unknown_near[:, :-1] |= ~known[:, 1:]
         return self.free & ~self.obstacle & unknown_near & \
-            (self.clearance >= self.spec.radius_m - FIT_SLACK_M)
+            (self.clearance >= self.spec.radius_m)
 
 
 __all__ = ["AgentPose", "EgoMap", "CELL_M", "SIZE", "FOCAL_PX", "back_project", "project",

@@ -32,7 +32,7 @@ import numpy as np
 from scipy.ndimage import label
 
 from fallgen.agents import ORACLES
-from fallgen.agents.mapping import SIZE, AgentPose, EgoMap, back_project, project
+from fallgen.agents.mapping import FIT_SLACK_M, SIZE, AgentPose, EgoMap, back_project, project
 from fallgen.nav.agent import DOWN, FORWARD, FOUND, HEADING_VECTORS, HEADINGS, LEFT, \
     MAX_ACTIONS, RIGHT, STEP_M, SUCCESS_DISTANCE_M, TURN_DEG, UP, VISIBLE_PIXELS, AgentSpec
 
@@ -50,6 +50,9 @@ SEE_PIXELS = VISIBLE_PIXELS + 2
 NEAR_M = 0.35
 #: camera tilt while travelling (down: the floor ahead is mapped)
 TRAVEL_TILT_DEG = -15
+#: the slack (m) of the robot's fit in the map (:data:`fallgen.agents.mapping.FIT_SLACK_M`),
+#: then more when no way is left
+SLACKS_M = (FIT_SLACK_M, 2 * FIT_SLACK_M)
 #: cost of a turn, in metres of path, when choosing where to go
 TURN_COST_M = 0.03
 #: cost of coming back to a cell already stood on, per visit
@@ -362,28 +365,31 @@ class ModularAgent:
 
     def _go(self, pose: AgentPose, sources: tuple[np.ndarray, np.ndarray]) -> int | None:
         """The action along the best plan to the nearest source; None when none can be
-        reached (or the robot stands on one)."""
+        reached (or the robot stands on one). When the map shuts every way, it is planned
+        again with more slack (:data:`SLACKS_M`: a gap the map drew a little too narrow)."""
         src, cost = sources
         if not src.any():
             return None
         pts = [pose.xy] + ([self.goal[:2]] if self.goal is not None else [])
         win = self.map.window(*pts)
-        field = self.map.field(win, src, cost)
-        here = self.map.value(field, pose.xy)
-        best, best_v = None, math.inf
-        for k in range(HEADINGS):
-            if not self.map.move_fits(pose.xy, k):
-                continue
-            q = pose.xy + STEP_M * HEADING_VECTORS[k]
-            qi, qj = EgoMap.cells(q)
-            v = self.map.value(field, q) + TURN_COST_M * _turns(pose.heading, k) \
-                + REVISIT_COST_M * float(self.map.visits[qi, qj])
-            if v < best_v - 1e-9:
-                best, best_v = k, v
-        if best is None or not math.isfinite(best_v):
+        for slack in SLACKS_M:
+            field = self.map.field(win, src, cost, slack)
+            best, best_v = None, math.inf
+            for k in range(HEADINGS):
+                if not self.map.move_fits(pose.xy, k, slack):
+                    continue
+                q = pose.xy + STEP_M * HEADING_VECTORS[k]
+                qi, qj = EgoMap.cells(q)
+                v = self.map.value(field, q) + TURN_COST_M * _turns(pose.heading, k) \
+                    + REVISIT_COST_M * float(self.map.visits[qi, qj])
+                if v < best_v - 1e-9:
+                    best, best_v = k, v
+            if best is not None and math.isfinite(best_v):
+                break
+        else:
             return None
         i, j = EgoMap.cells(pose.xy)
-        if src[i, j] and here <= best_v:  # arrived
+        if src[i, j] and self.map.value(field, pose.xy) <= best_v:  # arrived
             return None
         a = self._tilt_to(pose, TRAVEL_TILT_DEG) if not self._near_goal(pose) else None
         if a is not None:

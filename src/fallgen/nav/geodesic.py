@@ -26,12 +26,13 @@ from scipy.sparse.csgraph import dijkstra
 from fallgen.nav.occupancy import OccupancyGrid
 
 
-def grid_edges(free: np.ndarray, resolution: float
+def grid_edges(free: np.ndarray, resolution: float, cut_corners: bool = False
                ) -> tuple[np.ndarray, list[np.ndarray], list[np.ndarray], list[np.ndarray]]:
     """The graph of the free cells of a 2-D grid: ``idx`` (each free cell's node number, -1
     elsewhere) and the edges (rows, cols, weights, lists of arrays, both directions):
     orthogonal and diagonal neighbours, a diagonal step only where both cells beside it are
-    free (no corner is cut), weighted by the distance between the cell centres."""
+    free (no corner is cut) unless ``cut_corners``, weighted by the distance between the cell
+    centres."""
     nx, ny = free.shape
     idx = np.full((nx, ny), -1, np.int64)
     idx[free] = np.arange(int(free.sum()))
@@ -42,7 +43,7 @@ def grid_edges(free: np.ndarray, resolution: float
         a = free[max(0, -di):nx - max(0, di), max(0, -dj):ny - max(0, dj)]
         b = free[max(0, di):nx - max(0, -di) or None, max(0, dj):ny - max(0, -dj) or None]
         ok = a & b
-        if di and dj:  # diagonal: both cells beside the step free too
+        if di and dj and not cut_corners:  # diagonal: both cells beside the step free too
             side1 = free[max(0, di):nx - max(0, -di) or None, max(0, -dj):ny - max(0, dj)]
             side2 = free[max(0, -di):nx - max(0, di), max(0, dj):ny - max(0, -dj) or None]
             ok &= side1 & side2
