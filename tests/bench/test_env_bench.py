@@ -25,7 +25,9 @@ def test_env_bench_reports_rates_speedup_and_memory(tiny_build):
     for name in ("rgb_depth", "basic", "oracles"):
         assert rep[name]["steps_per_s"] > 0 and rep[name + "_no_cache"]["cache_served"] == 0
     assert 0 < rep["rgb_depth"]["cache_served"] < 1
-    v = rep["vector"]
-    assert v["one_worker_steps_per_s"] > 0 and v["two_workers_steps_per_s"] > 0
-    assert 50 < v["peak_worker_mb"] < 4096
+    for key in ("vector", "vector_no_cache"):
+        v = rep[key]
+        assert v["one_worker_steps_per_s"] > 0 and v["two_workers_steps_per_s"] > 0
+        assert 50 < v["peak_worker_mb"] < 4096
+        assert all(0 < b <= 1.2 for b in v["two_workers_busy"])
     assert len(rep["ratio_vs_tdw_published"]) == 2 and isinstance(rep["meets_goals"], bool)
