@@ -31,7 +31,7 @@ Reward (``reward="paper"``, the original challenge's): -0.01 per action; +10 for
 ``found``; +1 when a move brings the agent closer to the object, -1 when farther (horizontal
 distance to its centre), nothing when it did not move. ``reward="geodesic"`` (SoundSpaces'
 shaping): -0.01 per action, +10 for success, plus the decrease of the geodesic distance
-(:class:`fallgen.nav.geodesic.GeodesicField`).
+(:class:`fallgen.nav.geodesic.GeodesicField`; no shaping where it is not finite).
 
 An episode ends at a successful ``found`` (terminated), when the ``claims`` allowed are used
 (terminated; 1 by default, 2 as the original challenge), or after 200 actions (truncated).
@@ -260,7 +260,7 @@ class FallenObjectsEnv(gym.Env):
             if displaced:
                 d = walk.distance_m()
                 reward += 1.0 if d < d_before else -1.0 if d > d_before else 0.0
-        else:
+        elif math.isfinite(geo) and math.isfinite(self._geo_now):
             reward += self._geo_now - geo
         self._geo_now = geo
         if walk.success:
