@@ -25,6 +25,7 @@ import multiprocessing
 import os
 import platform
 import resource
+import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
@@ -99,7 +100,25 @@ def parallel_map(work: Callable[[U], Any], units: Sequence[U], init: Callable[..
 
 def _local_init(init: Callable[..., None], init_args: tuple) -> None:
     os.environ.update(WORKER_ENV)
+    _exit_with_parent()
     init(*init_args)
+
+
+def _exit_with_parent(period_s: float = 1.0) -> None:
+    """A worker process ends when the process that started it is gone (killed by a signal,
+    a scheduler's time limit): a ProcessPoolExecutor's workers would otherwise go on with
+    their unit, and the next, as orphans."""
+    import threading
+
+    parent = os.getppid()
+
+    def watch() -> None:
+        while True:
+            time.sleep(period_s)
+            if os.getppid() != parent:
+                os._exit(3)
+
+    threading.Thread(target=watch, name="exit-with-parent", daemon=True).start()
 
 
 _RAY_READY: dict[str, Any] = {}
