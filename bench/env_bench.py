@@ -34,6 +34,8 @@ import sys
 import time
 from pathlib import Path
 
+from full_build import cpu_model  # bench/ is on the path when a bench script runs
+
 REPO = Path(__file__).resolve().parents[1]
 TDW_ACTIONS_PER_S = (4.0, 7.0)  # published, not measured here
 RGB_DEPTH = ("rgb", "depth")
@@ -156,7 +158,7 @@ def main() -> None:
     import mujoco
 
     ds = _dataset(a.dataset)
-    out: dict = {"dataset": str(ds), "machine": {"cpu": _cpu(), "cores": os.cpu_count(),
+    out: dict = {"dataset": str(ds), "machine": {"cpu": cpu_model(), "cores": os.cpu_count(),
                                                    "python": platform.python_version(),
                                                    "mujoco": mujoco.__version__}}
     for name, sensors in (("rgb_depth", RGB_DEPTH), ("basic", BASIC), ("oracles", ORACLES)):
@@ -188,16 +190,6 @@ def main() -> None:
     out["ratio_vs_tdw_published"] = [round(rate / TDW_ACTIONS_PER_S[1], 1),
                                      round(rate / TDW_ACTIONS_PER_S[0], 1)]
     print(json.dumps(out))
-
-
-def _cpu() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor()
 
 
 if __name__ == "__main__":

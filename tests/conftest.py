@@ -111,3 +111,10 @@ def tiny_build(tmp_path_factory):
     assert run_cli("generate", "-c", str(cfg), "--workers", "1") == 0
     assert run_cli("generate", "-c", str(cfg), "--out", str(base / "two"), "--workers", "2") == 0
     return base, cfg
+
+
+@pytest.fixture(scope="session")
+def tiny_dataset(tiny_build):
+    """The tiny build made with one worker (base/one of :func:`tiny_build`)."""
+    base, _ = tiny_build
+    return base / "one"

@@ -9,23 +9,16 @@ import math
 import numpy as np
 import pytest
 
+from fallgen.env import SENSORS  # every sensor, oracles included
+
 pytestmark = pytest.mark.xdist_group("tiny_build")
 
-ALL = ("rgb", "depth", "audio", "pose", "category_seg", "object_category", "object_position",
-       "expert_action")
-
 
 @pytest.fixture(scope="module")
-def root(tiny_build):
-    base, _ = tiny_build
-    return base / "one"
-
-
-@pytest.fixture(scope="module")
-def env(root):
+def env(tiny_dataset):
     from fallgen.env import FallenObjectsEnv
 
-    e = FallenObjectsEnv(root, sensors=ALL)
+    e = FallenObjectsEnv(tiny_dataset, sensors=SENSORS)
     yield e
     e.close()
 
@@ -125,17 +118,17 @@ def _play(env, agent, eid):
     return actions, info
 
 
-def _sr(root, oracles, **kw):
+def _sr(tiny_dataset, oracles, **kw):
     from fallgen.agents.modular import ModularAgent
     from fallgen.env import FallenObjectsEnv
     from fallgen.world.library import load_world
 
     world = load_world(None)
-    probe = FallenObjectsEnv(root, sensors=("pose",), world=world)
+    probe = FallenObjectsEnv(tiny_dataset, sensors=("pose",), world=world)
     labels, ids = probe.category_labels, probe.ids
     probe.close()
     agent = ModularAgent(labels, world.categories.ids("target"), oracles=oracles, **kw)
-    e = FallenObjectsEnv(root, sensors=agent.sensors, world=world)
+    e = FallenObjectsEnv(tiny_dataset, sensors=agent.sensors, world=world)
     try:
         runs = [_play(e, agent, eid) for eid in ids]
     finally:
@@ -143,25 +136,26 @@ def _sr(root, oracles, **kw):
     return runs
 
 
-def test_modular_agent_with_every_oracle_finds_nearly_every_object_and_is_deterministic(root):
-    runs = _sr(root, ("segmentation", "category", "location"))
+def test_modular_agent_with_every_oracle_finds_nearly_every_object_and_is_deterministic(
+        tiny_dataset):
+    runs = _sr(tiny_dataset, ("segmentation", "category", "location"))
     success = [info["success"] for _, info in runs]
     assert sum(success) >= len(success) - 1, [info["outcome"] for _, info in runs]
     for _, info in runs:  # a claim is made only on sight: never a wrong one
         assert info["outcome"] in ("found", "timeout") or info["step"] == 200
-    again = _sr(root, ("segmentation", "category", "location"))
+    again = _sr(tiny_dataset, ("segmentation", "category", "location"))
     assert [a for a, _ in again] == [a for a, _ in runs]
 
 
-def test_without_oracles_the_agent_does_worse_and_never_claims_blind(root):
-    full = _sr(root, ("segmentation", "category", "location"))
-    none = _sr(root, ())
+def test_without_oracles_the_agent_does_worse_and_never_claims_blind(tiny_dataset):
+    full = _sr(tiny_dataset, ("segmentation", "category", "location"))
+    none = _sr(tiny_dataset, ())
     assert sum(i["success"] for _, i in none) < sum(i["success"] for _, i in full)
     for actions, info in none:  # no goal and no way to see: it explores, claims nothing
         assert 5 not in actions[:-1] and info["outcome"] == "timeout"
 
 
-def test_a_goal_predictor_steers_the_agent(root):
+def test_a_goal_predictor_steers_the_agent(tiny_dataset):
     """A predictor that tells the true place (from the step-0 observation) makes the
     location-less agent nearly as good as the location oracle, and it goes there at once."""
     from fallgen.agents.mapping import AgentPose
@@ -173,8 +167,8 @@ def test_a_goal_predictor_steers_the_agent(root):
         def predict(self, obs):
             return GoalEstimate(_oracle_goal(obs, AgentPose.from_obs(obs["pose"])), 0.3)
 
-    told = _sr(root, ("segmentation", "category"), predictor=Told())
-    blind = _sr(root, ("segmentation", "category"))
+    told = _sr(tiny_dataset, ("segmentation", "category"), predictor=Told())
+    blind = _sr(tiny_dataset, ("segmentation", "category"))
     assert sum(i["success"] for _, i in told) >= len(told) - 1
     # with no goal it looks around first (turns in place); told where, it goes there
     for (a_told, _), (a_blind, _) in zip(told, blind):

@@ -9,34 +9,27 @@ import math
 import numpy as np
 import pytest
 
+from fallgen.env import SENSORS  # every sensor, oracles included
+
 pytestmark = pytest.mark.xdist_group("tiny_build")
 
-ALL = ("rgb", "depth", "audio", "pose", "category_seg", "object_category", "object_position",
-       "expert_action")
-
 
 @pytest.fixture(scope="module")
-def root(tiny_build):
-    base, _ = tiny_build
-    return base / "one"
-
-
-@pytest.fixture(scope="module")
-def env(root):
+def env(tiny_dataset):
     from fallgen.env import FallenObjectsEnv
 
-    e = FallenObjectsEnv(root, sensors=ALL, render_mode="rgb_array")
+    e = FallenObjectsEnv(tiny_dataset, sensors=SENSORS, render_mode="rgb_array")
     yield e
     e.close()
 
 
-def test_gymnasium_env_checker_passes(root):
+def test_gymnasium_env_checker_passes(tiny_dataset):
     import gymnasium as gym
     from gymnasium.utils.env_checker import check_env
 
     import fallgen.env
 
-    e = gym.make(fallgen.env.ENV_ID, dataset=str(root), split="test", sensors=ALL,
+    e = gym.make(fallgen.env.ENV_ID, dataset=str(tiny_dataset), split="test", sensors=SENSORS,
                  render_mode="rgb_array", order="shuffle")
     try:
         check_env(e.unwrapped, skip_render_check=False)
@@ -44,10 +37,10 @@ def test_gymnasium_env_checker_passes(root):
         e.close()
 
 
-def test_reset_gives_the_datasets_own_step0_observation(env, root):
+def test_reset_gives_the_datasets_own_step0_observation(env, tiny_dataset):
     import fallgen.dataset
 
-    ds = fallgen.dataset.open(root)
+    ds = fallgen.dataset.open(tiny_dataset)
     for eid in ds.ids():
         obs, info = env.reset(options={"episode_id": eid})
         ep = ds.get(eid)
@@ -65,13 +58,13 @@ def test_reset_gives_the_datasets_own_step0_observation(env, root):
         assert env.observation_space.contains(obs)
 
 
-def test_expert_actions_replayed_step_by_step(env, root):
+def test_expert_actions_replayed_step_by_step(env, tiny_dataset):
     """The oracle's next action from the spawn on is the dataset's expert sequence; replaying
     it succeeds with SPL 1 and the stored SNA; the paper's reward adds up by hand."""
     import fallgen.dataset
     from fallgen.nav.agent import FORWARD
 
-    ds = fallgen.dataset.open(root)
+    ds = fallgen.dataset.open(tiny_dataset)
     for row in ds.rows():
         obs, _ = env.reset(options={"episode_id": row["episode_id"]})
         centre = env._room.centre[:2]
@@ -106,14 +99,14 @@ def test_expert_actions_replayed_step_by_step(env, root):
             env.step(0)
 
 
-def test_hand_made_sequences_give_hand_computed_spl_sna(env, root):
+def test_hand_made_sequences_give_hand_computed_spl_sna(env, tiny_dataset):
     """Two turns in place before the expert's actions: the same path (SPL 1), two more
     actions (SNA n* / (n + 2)); a 180 degree turn, a step out and back, then the expert:
     SPL l / (l + 0.5)."""
     import fallgen.dataset
     from fallgen.nav.agent import FORWARD, LEFT, RIGHT
 
-    ds = fallgen.dataset.open(root)
+    ds = fallgen.dataset.open(tiny_dataset)
     row = max(ds.rows(), key=lambda r: len(r["expert_actions"]))
     eid, acts = row["episode_id"], list(row["expert_actions"])
     n_star, l = row["fewest_actions"], row["shortest_path_m"]
@@ -161,10 +154,10 @@ def test_a_collision_leaves_the_pose_and_costs_the_step(env):
     pytest.fail("never blocked")
 
 
-def test_geodesic_reward_telescopes(root):
+def test_geodesic_reward_telescopes(tiny_dataset):
     from fallgen.env import FallenObjectsEnv
 
-    e = FallenObjectsEnv(root, sensors=("pose", "expert_action"), reward="geodesic")
+    e = FallenObjectsEnv(tiny_dataset, sensors=("pose", "expert_action"), reward="geodesic")
     try:
         obs, _ = e.reset(options={"episode_id": 1})
         g0 = e._geo.distance(e.pose.xy)
@@ -182,11 +175,11 @@ def test_geodesic_reward_telescopes(root):
         e.close()
 
 
-def test_two_claims_and_the_action_limit(root):
+def test_two_claims_and_the_action_limit(tiny_dataset):
     from fallgen.env import FallenObjectsEnv
     from fallgen.nav.agent import FOUND, LEFT
 
-    e = FallenObjectsEnv(root, sensors=("expert_action",), claims=2)
+    e = FallenObjectsEnv(tiny_dataset, sensors=("expert_action",), claims=2)
     try:
         obs, _ = e.reset(options={"episode_id": 2})
         obs, r, term, trunc, info = e.step(FOUND)  # from the spawn, 2 m away or more: wrong
@@ -203,7 +196,7 @@ def test_two_claims_and_the_action_limit(root):
         assert info["outcome"] == "timeout" and info["step"] == 200
     finally:
         e.close()
-    e = FallenObjectsEnv(root, sensors=("pose",))
+    e = FallenObjectsEnv(tiny_dataset, sensors=("pose",))
     try:
         e.reset(options={"episode_id": 2})
         _, _, term, _, info = e.step(FOUND)
@@ -212,11 +205,11 @@ def test_two_claims_and_the_action_limit(root):
         e.close()
 
 
-def test_same_seed_same_observations(root):
+def test_same_seed_same_observations(tiny_dataset):
     from fallgen.env import FallenObjectsEnv
 
     def trajectory(seed):
-        e = FallenObjectsEnv(root, sensors=("rgb", "depth", "pose"), order="shuffle")
+        e = FallenObjectsEnv(tiny_dataset, sensors=("rgb", "depth", "pose"), order="shuffle")
         e.action_space.seed(seed)
         out = []
         try:
@@ -237,26 +230,26 @@ def test_same_seed_same_observations(root):
     for x, y in zip(a, b):
         assert all(np.array_equal(x[1][k], y[1][k]) for k in x[1])
     # the seed chooses the order of a shuffled selection
-    firsts = {trajectory_first(root, s) for s in range(6)}
+    firsts = {trajectory_first(tiny_dataset, s) for s in range(6)}
     assert len(firsts) > 1
 
 
-def trajectory_first(root, seed):
+def trajectory_first(tiny_dataset, seed):
     from fallgen.env import FallenObjectsEnv
 
-    e = FallenObjectsEnv(root, sensors=("pose",), order="shuffle")
+    e = FallenObjectsEnv(tiny_dataset, sensors=("pose",), order="shuffle")
     try:
         return e.reset(seed=seed)[1]["episode_id"]
     finally:
         e.close()
 
 
-def test_selection_slices_and_bad_input(root):
+def test_selection_slices_and_bad_input(tiny_dataset):
     import fallgen.dataset
     from fallgen.env import FallenObjectsEnv
     from fallgen.env.source import select
 
-    ds = fallgen.dataset.open(root)
+    ds = fallgen.dataset.open(tiny_dataset)
     every = ds.ids()
     parts = [select(ds, rank=r, world_size=3) for r in range(3)]
     assert sorted(sum(parts, [])) == every and len(set(sum(parts, []))) == len(every)
@@ -266,10 +259,10 @@ def test_selection_slices_and_bad_input(root):
                           ({"categories": ["unicorn"]}, "unicorn"),
                           ({"sensors": ("sonar",)}, "sensors"), ({"reward": "x"}, "reward")):
         with pytest.raises(ValueError, match=match):
-            FallenObjectsEnv(root, **kwargs)
+            FallenObjectsEnv(tiny_dataset, **kwargs)
     with pytest.raises(FileNotFoundError):
-        FallenObjectsEnv(root / "nowhere")
-    e = FallenObjectsEnv(root, sensors=("pose",))
+        FallenObjectsEnv(tiny_dataset / "nowhere")
+    e = FallenObjectsEnv(tiny_dataset, sensors=("pose",))
     try:
         with pytest.raises(ValueError, match="no episode 77"):
             e.reset(options={"episode_id": 77})
@@ -280,7 +273,7 @@ def test_selection_slices_and_bad_input(root):
         e.close()
 
 
-def test_a_room_that_differs_from_the_stored_one_is_refused(root, tmp_path):
+def test_a_room_that_differs_from_the_stored_one_is_refused(tiny_dataset, tmp_path):
     import shutil
 
     import h5py
@@ -289,7 +282,7 @@ def test_a_room_that_differs_from_the_stored_one_is_refused(root, tmp_path):
     from fallgen.env import FallenObjectsEnv
 
     copy = tmp_path / "ds"
-    shutil.copytree(root, copy)
+    shutil.copytree(tiny_dataset, copy)
     ds = fallgen.dataset.open(copy)
     row = ds.row(0)
     with h5py.File(copy / row["media_file"], "r+") as f:
@@ -303,14 +296,14 @@ def test_a_room_that_differs_from_the_stored_one_is_refused(root, tmp_path):
         e.close()
 
 
-def test_render_and_record_video(root, tmp_path):
+def test_render_and_record_video(tiny_dataset, tmp_path):
     import gymnasium as gym
     from gymnasium.wrappers import RecordVideo
 
     import fallgen.env
 
     pytest.importorskip("moviepy")
-    e = gym.make(fallgen.env.ENV_ID, dataset=str(root), sensors=("depth", "pose"),
+    e = gym.make(fallgen.env.ENV_ID, dataset=str(tiny_dataset), sensors=("depth", "pose"),
                  render_mode="rgb_array")
     e = RecordVideo(e, str(tmp_path / "video"), episode_trigger=lambda k: True,
                     disable_logger=True)
@@ -325,15 +318,15 @@ def test_render_and_record_video(root, tmp_path):
     assert list((tmp_path / "video").glob("*.mp4"))
 
 
-def test_expert_succeeds_everywhere_through_the_vector_env(root):
+def test_expert_succeeds_everywhere_through_the_vector_env(tiny_dataset):
     """Two worker processes (shared memory), each its slice: every episode once, SR = SPL = 1."""
     import fallgen.dataset
     import fallgen.env
 
     from fallgen.env import NO_PLAN
 
-    ids = fallgen.dataset.open(root).ids()
-    vec = fallgen.env.make_vec(root, num_envs=2, sensors=("expert_action", "pose"))
+    ids = fallgen.dataset.open(tiny_dataset).ids()
+    vec = fallgen.env.make_vec(tiny_dataset, num_envs=2, sensors=("expert_action", "pose"))
     done: dict[int, dict] = {}
     played_by: dict[int, set] = {0: set(), 1: set()}
     try:

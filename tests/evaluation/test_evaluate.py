@@ -12,19 +12,13 @@ import pytest
 pytestmark = pytest.mark.xdist_group("tiny_build")
 
 
-@pytest.fixture(scope="module")
-def root(tiny_build):
-    base, _ = tiny_build
-    return base / "one"
-
-
-def test_expert_scores_one_and_workers_do_not_change_the_files(root, tmp_path, cli, capsys):
-    assert cli("evaluate", str(root), "--split", "all", "--baseline", "expert", "-o",
+def test_expert_scores_one_and_workers_do_not_change_the_files(tiny_dataset, tmp_path, cli, capsys):
+    assert cli("evaluate", str(tiny_dataset), "--split", "all", "--baseline", "expert", "-o",
                str(tmp_path / "one"), "--workers", "1") == 0
     table = capsys.readouterr().out
     assert "expert" in table and "Modular Planning" in table and "1.000" in table
     # a user agent by module:factory (the expert again), in 2 worker processes
-    assert cli("evaluate", str(root), "--split", "all", "--agent",
+    assert cli("evaluate", str(tiny_dataset), "--split", "all", "--agent",
                "fallgen.agents.expert:ExpertAgent", "-o", str(tmp_path / "two"),
                "--workers", "2") == 0
     a = (tmp_path / "one" / "episodes.jsonl").read_bytes()
@@ -39,38 +33,38 @@ def test_expert_scores_one_and_workers_do_not_change_the_files(root, tmp_path, c
     assert sum(v["n"] for v in s["by_zone_kind"].values()) == 6
     assert s["outcomes"] == {"found": 6, "wrong_found": 0, "timeout": 0}
     # re-scoring the actions the expert took gives the same lines
-    assert cli("evaluate", str(root), "--split", "all", "--actions",
+    assert cli("evaluate", str(tiny_dataset), "--split", "all", "--actions",
                str(tmp_path / "one" / "episodes.jsonl"), "-o", str(tmp_path / "re"),
                "--workers", "1") == 0
     assert (tmp_path / "re" / "episodes.jsonl").read_bytes() == a
 
 
-def test_random_agent_is_the_floor_and_cross_scene_selects_rooms(root, tmp_path, cli):
-    assert cli("evaluate", str(root), "--split", "all", "--baseline", "random", "-o",
+def test_random_agent_is_the_floor_and_cross_scene_selects_rooms(tiny_dataset, tmp_path, cli):
+    assert cli("evaluate", str(tiny_dataset), "--split", "all", "--baseline", "random", "-o",
                str(tmp_path / "r"), "--workers", "2", "--claims", "2", "--seed", "3") == 0
     s = json.loads((tmp_path / "r" / "summary.json").read_text())
     assert s["success"] <= 0.5 and s["claims"] == 2
     again = tmp_path / "r2"
-    assert cli("evaluate", str(root), "--split", "all", "--baseline", "random", "-o",
+    assert cli("evaluate", str(tiny_dataset), "--split", "all", "--baseline", "random", "-o",
                str(again), "--workers", "1", "--claims", "2", "--seed", "3") == 0
     assert (again / "episodes.jsonl").read_bytes() == \
         (tmp_path / "r" / "episodes.jsonl").read_bytes()
-    assert cli("evaluate", str(root), "--cross-scene", "kitchen_to_study", "--baseline",
+    assert cli("evaluate", str(tiny_dataset), "--cross-scene", "kitchen_to_study", "--baseline",
                "expert", "-o", str(tmp_path / "x"), "--workers", "1") == 0
     s = json.loads((tmp_path / "x" / "summary.json").read_text())
     assert list(s["by_room_kind"]) == ["study"] and s["selection"]["split"] == "test"
 
 
-def test_hand_written_action_file(root, tmp_path, cli):
+def test_hand_written_action_file(tiny_dataset, tmp_path, cli):
     import fallgen.dataset
 
-    ds = fallgen.dataset.open(root)
+    ds = fallgen.dataset.open(tiny_dataset)
     rows = ds.rows("test")
     # the expert's actions for one, a wrong claim for the other
     run = {str(rows[0]["episode_id"]): rows[0]["expert_actions"], str(rows[1]["episode_id"]): [5]}
     f = tmp_path / "run.json"
     f.write_text(json.dumps(run))
-    assert cli("evaluate", str(root), "--actions", str(f), "-o", str(tmp_path / "o"),
+    assert cli("evaluate", str(tiny_dataset), "--actions", str(f), "-o", str(tmp_path / "o"),
                "--workers", "1") == 0
     recs = [json.loads(x) for x in (tmp_path / "o" / "episodes.jsonl").read_text().splitlines()]
     assert [r["success"] for r in recs] == [True, False]
@@ -90,32 +84,32 @@ def test_hand_written_action_file(root, tmp_path, cli):
     (["--baseline", "expert", "--split", "holdout", "-o", "{t}/o"], "--split"),
     (["--actions", "{t}/missing.json", "-o", "{t}/o"], "actions"),
 ])
-def test_bad_input_is_one_line_and_exit_2(root, tmp_path, cli, capsys, args, field):
+def test_bad_input_is_one_line_and_exit_2(tiny_dataset, tmp_path, cli, capsys, args, field):
     args = [a.format(t=tmp_path) for a in args]
-    assert cli("evaluate", str(root), *args) == 2
+    assert cli("evaluate", str(tiny_dataset), *args) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("error: ") and len(err.splitlines()) == 1 and field in err
     assert not (tmp_path / "o").exists()
 
 
-def test_unknown_dataset_and_incomplete_action_file(root, tmp_path, cli, capsys):
+def test_unknown_dataset_and_incomplete_action_file(tiny_dataset, tmp_path, cli, capsys):
     assert cli("evaluate", str(tmp_path / "nothing"), "--baseline", "expert", "-o",
                str(tmp_path / "o")) == 2
     assert "data/" in capsys.readouterr().err
     f = tmp_path / "part.json"
     f.write_text(json.dumps({"4": [5]}))  # the test split has two episodes
-    assert cli("evaluate", str(root), "--actions", str(f), "--split", "test", "-o",
+    assert cli("evaluate", str(tiny_dataset), "--actions", str(f), "--split", "test", "-o",
                str(tmp_path / "o")) == 2
     assert "no actions for episode" in capsys.readouterr().err
 
 
-def test_export_expert_hdf5_and_minari(root, tmp_path, cli):
+def test_export_expert_hdf5_and_minari(tiny_dataset, tmp_path, cli):
     import h5py
 
     import fallgen.dataset
 
-    ds = fallgen.dataset.open(root)
-    assert cli("export-expert", str(root), "-o", str(tmp_path / "h"), "--split", "all",
+    ds = fallgen.dataset.open(tiny_dataset)
+    assert cli("export-expert", str(tiny_dataset), "-o", str(tmp_path / "h"), "--split", "all",
                "--sensors", "rgb,depth,pose,expert_action") == 0
     with h5py.File(tmp_path / "h" / "expert.h5") as f:
         assert sorted(int(k) for k in f["episodes"]) == ds.ids()
@@ -130,7 +124,7 @@ def test_export_expert_hdf5_and_minari(root, tmp_path, cli):
             assert g["terminations"][-1] and not g["terminations"][:-1].any()
             assert g.attrs["success"] and g.attrs["category"] == row["category"]
     minari = pytest.importorskip("minari")
-    assert cli("export-expert", str(root), "-o", str(tmp_path / "m"), "--episodes", "0,3",
+    assert cli("export-expert", str(tiny_dataset), "-o", str(tmp_path / "m"), "--episodes", "0,3",
                "--format", "minari", "--sensors", "rgb,pose") == 0
     import os
 

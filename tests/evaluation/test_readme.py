@@ -24,15 +24,9 @@ def _blocks() -> tuple[str, str]:
     return env_block, agent_block
 
 
-@pytest.fixture(scope="module")
-def root(tiny_build):
-    base, _ = tiny_build
-    return base / "one"
-
-
-def test_readme_environment_snippet_runs(root):
+def test_readme_environment_snippet_runs(tiny_dataset):
     env_block, _ = _blocks()
-    code = env_block.replace('"build/smoke"', repr(str(root)))
+    code = env_block.replace('"build/smoke"', repr(str(tiny_dataset)))
     assert code != env_block
     scope: dict = {}
     exec(compile(code, str(README), "exec"), scope)
@@ -44,11 +38,11 @@ def test_readme_environment_snippet_runs(root):
         scope["env"].close()
 
 
-def test_readme_agent_example_evaluates_from_its_file(root, tmp_path, cli):
+def test_readme_agent_example_evaluates_from_its_file(tiny_dataset, tmp_path, cli):
     _, agent_block = _blocks()
     f = tmp_path / "my_agent.py"
     f.write_text(agent_block)
-    assert cli("evaluate", str(root), "--split", "all", "--agent", f"{f}:LookAround",
+    assert cli("evaluate", str(tiny_dataset), "--split", "all", "--agent", f"{f}:LookAround",
                "-o", str(tmp_path / "look"), "--workers", "2") == 0
     recs = [json.loads(x) for x in (tmp_path / "look" / "episodes.jsonl").read_text()
             .splitlines()]
@@ -58,17 +52,17 @@ def test_readme_agent_example_evaluates_from_its_file(root, tmp_path, cli):
     # a broken file: one line naming it, exit 2
     bad = tmp_path / "broken.py"
     bad.write_text("class X(:\n")
-    assert cli("evaluate", str(root), "--agent", f"{bad}:X", "-o", str(tmp_path / "b")) == 2
+    assert cli("evaluate", str(tiny_dataset), "--agent", f"{bad}:X", "-o", str(tmp_path / "b")) == 2
 
 
-def test_modular_baseline_from_the_command_line(root, tmp_path, cli, capsys):
-    assert cli("evaluate", str(root), "--split", "all", "--baseline", "modular",
+def test_modular_baseline_from_the_command_line(tiny_dataset, tmp_path, cli, capsys):
+    assert cli("evaluate", str(tiny_dataset), "--split", "all", "--baseline", "modular",
                "-o", str(tmp_path / "all"), "--workers", "1") == 0
     s = json.loads((tmp_path / "all" / "summary.json").read_text())
     assert s["agent"] == "modular[segmentation+category+location]"
     assert s["success"] >= 5 / 6
-    assert cli("evaluate", str(root), "--split", "all", "--baseline", "modular", "--oracles",
-               "none", "-o", str(tmp_path / "none"), "--workers", "1") == 0
+    assert cli("evaluate", str(tiny_dataset), "--split", "all", "--baseline", "modular",
+               "--oracles", "none", "-o", str(tmp_path / "none"), "--workers", "1") == 0
     s0 = json.loads((tmp_path / "none" / "summary.json").read_text())
     assert s0["agent"] == "modular" and s0["success"] < s["success"]
     assert s0["outcomes"]["timeout"] == 6
