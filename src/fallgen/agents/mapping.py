@@ -19,6 +19,7 @@ robot and the goal.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -117,6 +118,13 @@ def project(points: np.ndarray, pose: AgentPose, camera_height_m: float
     return row, col, z
 
 
+@functools.cache
+def _all_centres() -> np.ndarray:
+    c = EgoMap.centres(*np.mgrid[0:SIZE, 0:SIZE])
+    c.setflags(write=False)
+    return c
+
+
 class EgoMap:
     """What the agent knows of the room (see the module's docstring)."""
 
@@ -144,6 +152,11 @@ class EgoMap:
     def centres(i: np.ndarray, j: np.ndarray) -> np.ndarray:
         return np.stack([(np.asarray(i) - SIZE // 2 + 0.5) * CELL_M,
                          (np.asarray(j) - SIZE // 2 + 0.5) * CELL_M], axis=-1)
+
+    @staticmethod
+    def all_centres() -> np.ndarray:
+        """(SIZE, SIZE, 2) the centre of every cell (computed once, read-only)."""
+        return _all_centres()
 
     @property
     def known(self) -> np.ndarray:

@@ -35,6 +35,7 @@ from fallgen.agents import ORACLES
 from fallgen.agents.mapping import FIT_SLACK_M, SIZE, AgentPose, EgoMap, back_project, project
 from fallgen.nav.agent import DOWN, FORWARD, FOUND, HEADING_VECTORS, HEADINGS, LEFT, \
     MAX_ACTIONS, RIGHT, STEP_M, SUCCESS_DISTANCE_M, TURN_DEG, UP, VISIBLE_PIXELS, AgentSpec
+from fallgen.vision.camera import HEIGHT, WIDTH
 
 #: where the agent goes to look at the object: within this (m) of it, horizontally
 REACH_M = 1.5
@@ -214,18 +215,20 @@ class ModularAgent:
         """Pixels of the object (as the agent believes) in this view: near the goal when it
         is known, else those of the best candidate seen; updates the candidates."""
         seg = self._segmentation(obs)
-        depth = np.asarray(obs["depth"]).reshape(seg.shape) if seg is not None else None
         if seg is None:
             return -1  # cannot see: judged by depth at the claim
+        depth = np.asarray(obs["depth"]).reshape(seg.shape)
         rows, cols = np.nonzero(np.isin(seg, self.target_idx))
         if len(rows) == 0:
             return 0
         pts = back_project(depth, rows, cols, pose, self.spec.camera_height_m)
         if self.goal_exact:
             return int((np.linalg.norm(pts - self.goal, axis=1) <= NEAR_M).sum())
-        # clusters of the pixels by their cells on the floor plan
+        # clusters of the pixels by their cells on the floor plan (labelled in the cells'
+        # bounding box only)
         i, j = self.map.cells(pts[:, :2])
-        img = np.zeros((SIZE, SIZE), bool)
+        i, j = i - i.min(), j - j.min()
+        img = np.zeros((i.max() + 1, j.max() + 1), bool)
         img[i, j] = True
         lab, k = label(img, structure=np.ones((3, 3)))
         ids = lab[i, j]
@@ -260,7 +263,7 @@ class ModularAgent:
         than it (nothing in front of it)."""
         row, col, z = project(self.goal[None, :], pose, self.spec.camera_height_m)
         r, c, z = float(row[0]), float(col[0]), float(z[0])
-        d = np.asarray(obs["depth"]).reshape(300, 300)
+        d = np.asarray(obs["depth"]).reshape(HEIGHT, WIDTH)
         if not (z > 0 and 5 <= r < d.shape[0] - 5 and 5 <= c < d.shape[1] - 5):
             return False
         patch = d[int(r) - 2:int(r) + 3, int(c) - 2:int(c) + 3]
@@ -270,8 +273,8 @@ class ModularAgent:
 
     def _decide(self, obs: Mapping[str, np.ndarray], pose: AgentPose, seen: int) -> int:
         last_chance = self.n >= MAX_ACTIONS - 1
+        d = math.inf if self.goal is None else float(np.linalg.norm(pose.xy - self.goal[:2]))
         if self.goal is not None:
-            d = float(np.linalg.norm(pose.xy - self.goal[:2]))
             claim_m = CLAIM_EXACT_M if self.goal_exact else CLAIM_SEEN_M
             if d <= claim_m and (seen >= SEE_PIXELS or (seen >= VISIBLE_PIXELS and
                                                          self.goal_exact)):
@@ -285,7 +288,6 @@ class ModularAgent:
             self.scan_left -= 1
             return self._tilt_to(pose, TRAVEL_TILT_DEG) or LEFT
         if self.goal is not None and self._searching_goal():
-            d = float(np.linalg.norm(pose.xy - self.goal[:2]))
             if d <= self._reach() + 1e-6 and not self._failed_here(pose):
                 a = self._look(pose)
                 if a is not None:
@@ -347,7 +349,7 @@ class ModularAgent:
         above the camera), those that failed left out; for a predicted goal, within its
         uncertainty."""
         reach = self._reach()
-        c = EgoMap.centres(*np.mgrid[0:SIZE, 0:SIZE])
+        c = EgoMap.all_centres()
         d = np.linalg.norm(c - self.goal[:2], axis=-1)
         ok = d <= reach
         for f in self.failed:
@@ -359,8 +361,7 @@ class ModularAgent:
         fr = self.map.frontier()
         cost = np.zeros((SIZE, SIZE))
         if self.prior is not None:
-            c = EgoMap.centres(*np.mgrid[0:SIZE, 0:SIZE])
-            cost = 0.5 * np.linalg.norm(c - self.prior[:2], axis=-1)
+            cost = 0.5 * np.linalg.norm(EgoMap.all_centres() - self.prior[:2], axis=-1)
         return fr, cost
 
     def _go(self, pose: AgentPose, sources: tuple[np.ndarray, np.ndarray]) -> int | None:
