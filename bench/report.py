@@ -49,7 +49,7 @@ def main() -> None:
         head["env_steps_per_s_rgb_depth"] = e["rgb_depth"]["steps_per_s"]
         head["env_steps_per_s_rgb_depth_no_cache"] = e["rgb_depth_no_cache"]["steps_per_s"]
         head["env_vector_speedup_2_workers"] = e["vector"]["speedup"]
-        head["env_vector_speedup_2_workers_no_cache"] = e["vector_no_cache"]["speedup"]
+        head["env_vector_speedup_2_workers_lockstep"] = e["vector_lockstep"]["speedup"]
         head["env_peak_worker_mb"] = e["vector"]["peak_worker_mb"]
         head["env_ratio_vs_tdw_published"] = e["ratio_vs_tdw_published"]
     for name in ("impact", "room"):

@@ -346,3 +346,59 @@ def test_expert_succeeds_everywhere_through_the_vector_env(tiny_dataset):
     assert sorted(done) == ids
     assert not played_by[0] & played_by[1]  # disjoint slices
     assert all(d["success"] and d["spl"] == 1.0 for d in done.values())
+
+
+def test_async_stepping_plays_the_same_episodes_as_lockstep(tiny_dataset):
+    """send/recv: each environment stepped as soon as it is done (one at a time, the other
+    still stepping) follows the expert to the same outcomes, on the same episodes, as the
+    lockstep step(); misuse is refused; step() after send() first waits for it."""
+    import fallgen.dataset
+    import fallgen.env
+
+    ids = fallgen.dataset.open(tiny_dataset).ids()
+    vec = fallgen.env.make_vec(tiny_dataset, num_envs=2, sensors=("expert_action", "pose"))
+    done: dict[int, dict] = {}
+    played_by: dict[int, list] = {0: [], 1: []}
+    steps = {0: 0, 1: 0}
+    try:
+        obs, _ = vec.reset(seed=0)
+        with pytest.raises(RuntimeError, match="send"):
+            vec.recv()
+        vec.send(obs["expert_action"], [0, 1])
+        assert vec.pending == {0, 1}
+        with pytest.raises(ValueError, match="already stepping"):
+            vec.send([0], [1])
+        while len(done) < len(ids):
+            r = vec.recv()
+            assert r.observations["pose"].shape == (len(r.env_ids), 4)
+            for k, i in enumerate(r.env_ids):
+                i = int(i)
+                steps[i] += 1
+                if r.terminations[k] or r.truncations[k]:
+                    info = r.infos[k]
+                    played_by[i].append(int(info["episode_id"]))
+                    done.setdefault(int(info["episode_id"]),
+                                    {m: info[m] for m in ("success", "spl")})
+            # step only the first one back; the other is sent on its own later
+            vec.send(r.observations["expert_action"][:1], r.env_ids[:1])
+            if len(r.env_ids) > 1:
+                vec.send(r.observations["expert_action"][1:], r.env_ids[1:])
+            assert sum(steps.values()) < 800
+        vec.recv(len(vec.pending))
+        assert not vec.pending
+        with pytest.raises(ValueError, match="action"):
+            vec.send([9], [0])
+        vec.send([1], [0])
+        obs, *_ = vec.step(np.array([1, 1]))  # lockstep again: waits for what was sent first
+        assert obs["pose"].shape == (2, 4) and not vec.pending
+    finally:
+        vec.close()
+    assert sorted(done) == ids
+    assert not set(played_by[0]) & set(played_by[1])
+    assert all(d["success"] and d["spl"] == 1.0 for d in done.values())
+    # the same slices as the lockstep env's (environment i: slice i of 2)
+    for i in (0, 1):
+        env = fallgen.env.FallenObjectsEnv(tiny_dataset, rank=i, world_size=2,
+                                           sensors=("pose",))
+        assert set(played_by[i]) <= set(env.ids)
+        env.close()

@@ -8,6 +8,7 @@
     obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
 
     vec = fallgen.env.make_vec("build/full", num_envs=2, split="train")
+    vec.send(actions, env_ids); ready = vec.recv()   # or vec.step(actions), in lockstep
 
 See :mod:`fallgen.env.fallen_objects` for the observations, actions, reward and judging.
 """
@@ -18,7 +19,7 @@ from gymnasium.envs.registration import register, registry
 
 from fallgen.env.fallen_objects import (BASIC_SENSORS, END_KEYS, NO_PLAN, ORACLE_SENSORS,
                                         SENSORS, FallenObjectsEnv)
-from fallgen.env.vector import make_vec
+from fallgen.env.vector import Ready, VectorEnv, make_vec
 
 ENV_ID = "fallgen/FallenObjects-v0"
 
@@ -27,5 +28,5 @@ if ENV_ID not in registry:
     # wrapper counting the same steps would only say so twice)
     register(id=ENV_ID, entry_point="fallgen.env.fallen_objects:FallenObjectsEnv")
 
-__all__ = ["ENV_ID", "FallenObjectsEnv", "make_vec", "SENSORS", "BASIC_SENSORS",
-           "ORACLE_SENSORS", "NO_PLAN", "END_KEYS"]
+__all__ = ["ENV_ID", "FallenObjectsEnv", "make_vec", "VectorEnv", "Ready", "SENSORS",
+           "BASIC_SENSORS", "ORACLE_SENSORS", "NO_PLAN", "END_KEYS"]
