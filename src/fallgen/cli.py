@@ -399,6 +399,14 @@ def stats(
     console.print(f"skips: {s['skips_by_reason'] or 'none'}; episodes on a fallback event: "
                   f"{s['episodes_on_a_fallback_event']}; spawns that already see the object: "
                   f"{s['spawn_sees_object']}")
+    t = Table("goal", "measured", "bound", "met")
+    for name, g in s["goals"].items():
+        v = g["value"]
+        shown = "-" if v is None else f"{v:.3g}" if isinstance(v, float) else \
+            ", ".join(f"{x:.1f}" for x in v) if isinstance(v, list) else \
+            ", ".join(f"{k} {x:+.1f}" for k, x in v.items()) if isinstance(v, dict) else str(v)
+        t.add_row(name, shown, g["bound"], "?" if g["ok"] is None else "yes" if g["ok"] else "NO")
+    console.print(t)
     if json_out:
         write_text(json_out, json.dumps(s, indent=1) + "\n")
         console.print(f"{json_out}")

@@ -43,7 +43,8 @@ def _drop_event(world, category, variant, material, height, steps=900, zone_kind
         audio_material=inst.material.audio, mass_kg=inst.mass_kg, start_pos=pos,
         start_quat=quat, start_linvel=(0.0, 0.0, 0.0), start_angvel=(0.0, 0.0, 0.0),
         settle_pos=tuple(map(float, d.qpos[:3])), settle_quat=tuple(map(float, d.qpos[3:7])),
-        settle_com=tuple(map(float, d.qpos[:3])), settle_time_s=steps * m.opt.timestep,
+        settle_com=tuple(map(float, d.xipos[scene.object_body["target"]])),
+        settle_time_s=steps * m.opt.timestep,
         steps=steps, distractors=tuple(distractors), occluders=(),
         contacts=tuple(rec.finish()))
 

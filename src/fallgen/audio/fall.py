@@ -2,11 +2,15 @@
 
 For each contact event of a :class:`~fallgen.physics.events.FallEvent`:
 
-- an ``impact`` strikes the falling object at its contact point and the other body (floor, wall,
-  furniture part, distractor) at the same world point, with the recorded compression impulse
-  times (1 + e) (the whole contact's impulse, e the pair's restitution) as a Hertz pulse whose
-  duration follows from both materials, the object's contact radius and mass and the approach
-  speed;
+- an ``impact`` is a contact between the falling object (at its contact point) and the other
+  body (floor, wall, furniture part, distractor; at the same world point): the effective mass
+  that the recorded compression impulse implies, at the approach speed, meets both bodies'
+  modes through a contact spring as stiff as the Hertz contact of the two materials
+  (:mod:`fallgen.audio.coupling`), and the modes ring from the state it leaves them in: energy
+  is conserved, and the modes never take more than the (1 - e^2) share of the impact's
+  kinetic energy that the pair's restitution e says it loses (a prescribed rigid-body impulse
+  gave a thin steel panel more energy than the whole fall had). The impulse times (1 + e)
+  over the rigid Hertz time still makes the rigid-body noise;
 - a ``scrape`` or ``roll`` sample (10 ms of sustained contact) becomes a train of small random
   impulses, one per roughness wavelength travelled (``roughness_m``), each lasting the time to
   cross it, with an RMS of ``roughness_force_ratio`` (scrapes; a third of it for rolls) times
@@ -30,6 +34,7 @@ import mujoco
 import numpy as np
 import trimesh
 
+from fallgen.audio.coupling import coupled_impact
 from fallgen.audio.hertz import hertz_impact
 from fallgen.audio.impact import ModalHit, SoundingBody, render
 from fallgen.audio.mix import DrySource
@@ -43,6 +48,7 @@ from fallgen.world.scene import Scene, build_scene
 from fallgen.world.shell import ThinShell
 
 PATCH_M = 0.6
+GRAVITY = 9.81  # m/s^2, the rehearsal's (physics.drop)
 PATCH_THICKNESS_M = 0.02
 MOUNTED_LOSS_FACTOR = 0.05
 #: Where a floor or wall patch is struck, as a fraction of its side from the centre (an
@@ -121,6 +127,17 @@ def _sounding(ref: ModalModel, mat: ObjectMaterial, scale: float, mass: float, r
                         mat.poisson_ratio, mass, radius)
 
 
+def _contact_modes(body: SoundingBody, point: np.ndarray, direction: np.ndarray | None
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """(omega, b) of a body's modes at the surface node nearest ``point``: b the
+    mass-normalised shapes along ``direction`` (None: the outward normal there), as
+    :func:`fallgen.audio.impact.render` excites them."""
+    m = body.modes
+    node = int(m.nearest(point)[0])
+    d = m.normal(node) if direction is None else np.asarray(direction, float)
+    return m.omega, d @ m.phi(node)
+
+
 class FallRenderer:
     """Renders fall events of one world; keeps the modal models it has used most recently,
     up to ``model_budget_bytes`` (a worker of a full build meets ~300 models, ~500 MB; one
@@ -197,6 +214,18 @@ class FallRenderer:
         ref = self._ref(key, lambda: (mesh.vertices, mesh.faces, nu))
         body = _sounding(ref, mat, 1.0, mat.density_kg_m3 * vol, math.inf, MOUNTED_LOSS_FACTOR)
         return _Body(body, vol, pos, rot, mat, patch=is_panel(owner))
+
+    def energy_lost_j(self, event: FallEvent) -> float:
+        """The mechanical energy the fall loses, all of it in its contacts: the drop of the
+        target's centre of mass times m g, plus its kinetic energy at the start (translation
+        and rotation; it comes to rest)."""
+        from fallgen.physics.drop import _instance
+
+        inst = _instance(self.world, event.target)
+        com0 = np.asarray(event.start_pos, float) + _quat_mat(event.start_quat) @ inst.com
+        v, w = np.asarray(event.start_linvel, float), np.asarray(event.start_angvel, float)
+        return float(inst.mass_kg * GRAVITY * (com0[2] - event.settle_com[2])
+                     + 0.5 * inst.mass_kg * v @ v + 0.5 * w @ inst.inertia @ w)
 
     # -- the fall ---------------------------------------------------------------------------
     def render(self, event: FallEvent, rng: np.random.Generator,
@@ -298,11 +327,25 @@ class FallRenderer:
         if c.kind == "impact":
             e = min(target.material.restitution, other.material.restitution)
             j = c.impulse_ns * (1.0 + e)
+            v = max(c.normal_speed_mps, 1e-3)
             h = hertz_impact(a.youngs_modulus_pa, a.poisson_ratio, b.youngs_modulus_pa,
                              b.poisson_ratio, a.contact_radius_m, b.contact_radius_m,
-                             a.mass_kg, math.inf, max(c.normal_speed_mps, 1e-3))
-            target.hits.append(ModalHit(c.time_s, np.asarray(c.point_object), j, h.duration_s))
-            other.hits.append(ModalHit(c.time_s, p_other, j, h.duration_s, -n_other))
+                             a.mass_kg, math.inf, v)
+            p_target = np.asarray(c.point_object, float)
+            # the modes take what the contact gives them (coupling.py), at most what the
+            # impact loses: (1 - e^2) of the effective mass's kinetic energy
+            m_eff = float(np.clip(c.impulse_ns / v, 1e-6, a.mass_kg))
+            bt, bo = _contact_modes(a, p_target, None), _contact_modes(b, p_other, -n_other)
+            imp = coupled_impact(m_eff, v, h.duration_s, [bt, bo])
+            cap = (1.0 - e * e) * imp.incoming_j
+            if imp.vibration_j > cap:
+                imp = imp.scaled(math.sqrt(cap / imp.vibration_j))
+            target.hits.append(ModalHit(c.time_s, p_target, j, h.duration_s, None,
+                                        (imp.displacement[0], imp.velocity[0],
+                                         imp.duration_s)))
+            other.hits.append(ModalHit(c.time_s, p_other, j, h.duration_s, -n_other,
+                                       (imp.displacement[1], imp.velocity[1],
+                                        imp.duration_s)))
             return
         # scrape / roll: texture bumps along the sample
         # a scrape's texture passes at the slip speed, a roll's at the contact point's travel

@@ -34,6 +34,15 @@ REFERENCE_DISTANCE_M = 1.0
 DECAY_FLOOR_DB = 80.0
 
 
+def radiated_energy_j(pressure_1m: np.ndarray, sample_rate: int,
+                      r: float = REFERENCE_DISTANCE_M) -> float:
+    """Acoustic energy (J) of a dry signal, pressure (Pa) at ``r`` taken as the same in every
+    direction: 4 pi r^2 / (rho0 c) * integral of p^2 dt (the RMS over directions is what the
+    radiation factors give, so this is the energy the modes radiate)."""
+    p = np.asarray(pressure_1m, float)
+    return float(4 * math.pi * r * r / (RHO_AIR * C_AIR) * np.dot(p, p) / sample_rate)
+
+
 @dataclass(frozen=True)
 class SoundingBody:
     """One body that rings: its modes (scaled to its material and size) and what sets its
@@ -75,6 +84,11 @@ class ModalHit:
     impulse_ns: float
     duration_s: float
     direction: np.ndarray | None = None
+    #: An impact solved as a contact with the body's modes
+    #: (:func:`fallgen.audio.coupling.coupled_impact`): every mode's displacement and velocity
+    #: when the bodies part, and when that is after ``time_s``. The modes then ring from that
+    #: state instead of from the impulse (which still makes the rigid-body noise).
+    modal_state: tuple[np.ndarray, np.ndarray, float] | None = None
 
 
 def rigid_body_pressure(volume_m3: float, mass_kg: float, hits: list[ModalHit], n_out: int,
@@ -137,7 +151,8 @@ def modal_sum(z: np.ndarray, c: np.ndarray, idx: np.ndarray, g: np.ndarray, n_ou
     DECAY_FLOOR_DB below the loudest mode's peak is dropped).
 
     ``z``: (M,) per-sample complex factor e^((-d + i w_d) T); ``c``: (M,) output weights;
-    ``idx``: (H,) start samples; ``g``: (H, M) real gains."""
+    ``idx``: (H,) start samples; ``g``: (H, M) gains (real: an impulse's modal velocities;
+    complex: a state, see :func:`render`)."""
     out = np.zeros(n_out)
     order = np.argsort(idx, kind="stable")
     idx, g = idx[order], g[order] * c[None, :]
@@ -217,7 +232,8 @@ def render(body: SoundingBody, hits: list[ModalHit], length_s: float,
     live = [h for h in hits if h.impulse_ns > 0 and int(round(h.time_s * sample_rate)) < n_out]
     if not live:
         return out
-    idx = np.array([int(round(h.time_s * sample_rate)) for h in live])
+    idx = np.array([int(round((h.time_s + (h.modal_state[2] if h.modal_state else 0.0))
+                              * sample_rate)) for h in live])
     # hits share few points (a scrape's bumps all land on its contact point): one nearest-node
     # search per distinct point
     pts, which = np.unique(np.array([h.point for h in live], float), axis=0, return_inverse=True)
@@ -230,6 +246,12 @@ def render(body: SoundingBody, hits: list[ModalHit], length_s: float,
     # the pulse spectrum depends on omega * duration only
     g = np.einsum("hc,hcn->hn", n_dir, phi) * J[:, None] \
         * half_sine_spectrum(w[None, :] * dur[:, None], 1.0)
+    coupled = [k for k, h in enumerate(live) if h.modal_state is not None]
+    if coupled:  # ringing from the state the contact left (G = v0 + d q0 + i w_d q0)
+        g = g.astype(complex)
+        for k in coupled:
+            q0, v0, _ = live[k].modal_state
+            g[k] = (v0[keep] + d * q0[keep]) + 1j * wd * q0[keep]
     T = 1.0 / sample_rate
     z = np.exp((-d + 1j * wd) * T)
     out += modal_sum(z, R / wd, idx, g, n_out)

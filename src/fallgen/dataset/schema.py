@@ -59,6 +59,14 @@ COLUMNS: dict[str, tuple[str, str, str]] = {
                    "clip would pass 0.99)"),
     "audio_peak_db_spl": ("double", "dB SPL", "peak ear pressure, louder ear"),
     "audio_leq_db_spl": ("double", "dB SPL", "loudest 125 ms equivalent level, louder ear"),
+    "audio_radiated_j": ("double", "J", "acoustic energy the fall's dry sound radiates (every "
+                         "source, its pressure at 1 m taken as the same in every direction)"),
+    "fall_energy_lost_j": ("double", "J", "mechanical energy the fall loses in its contacts "
+                           "(m g times the centre of mass's drop, plus the start's kinetic "
+                           "energy)"),
+    "audio_energy_ratio": ("double", "", "audio_radiated_j / fall_energy_lost_j: impacts "
+                           "radiate ~1e-4 to 1e-2 of their energy; every build checks it "
+                           "against AUDIO_ENERGY_CEILING (fallgen stats)"),
     "sample_rate": ("int64", "Hz", "audio sample rate (44100)"),
     "instance_labels": ("string", "", "JSON list: instance segmentation value k -> "
                         "owner name (k = 0: nothing)"),

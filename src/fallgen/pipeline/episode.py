@@ -34,6 +34,7 @@ import mujoco
 import numpy as np
 
 from fallgen.audio.fall import FallRenderer
+from fallgen.audio.impact import radiated_energy_j
 from fallgen.audio.mix import Binaural, BinauralClip, Listener
 from fallgen.audio.room import RirSettings, RoomAcoustics
 from fallgen.nav.agent import HEADINGS, VISIBLE_PIXELS, AgentSpec, Pose, run
@@ -71,6 +72,19 @@ def episode_rng(root_seed: int, episode_id: int) -> np.random.Generator:
 
 
 @dataclass(frozen=True)
+class FallEnergy:
+    """The fall's energy account: what its dry sound radiates (every source, J) against the
+    mechanical energy the fall loses in its contacts (J)."""
+
+    radiated_j: float
+    lost_j: float
+
+    @property
+    def ratio(self) -> float:
+        return self.radiated_j / self.lost_j if self.lost_j > 0 else float("inf")
+
+
+@dataclass(frozen=True)
 class Episode:
     episode_id: int
     event: FallEvent
@@ -83,6 +97,7 @@ class Episode:
     expert: Expert
     expert_spl: float
     expert_sna: float
+    energy: FallEnergy
     expert_poses: tuple[Pose, ...] = ()  # the spawn, then the pose after each expert action
     frames: tuple[View, ...] = ()  # the view at each of expert_poses (when asked)
     timings_s: dict[str, float] = field(default_factory=dict)
@@ -162,6 +177,8 @@ class EpisodeMaker:
                 replayed, sound_scene = _with_contacts(event, rep.contacts), rep.scene
             lap("replay")
             sources = self.sounds.render_sources(replayed, rng, sound_scene)
+            energy = FallEnergy(sum(radiated_energy_j(src.signal, self.sounds.s.sample_rate)
+                                    for src in sources), self.sounds.energy_lost_j(replayed))
             room = RoomAcoustics.from_shoebox(variant.shoebox())
             head = Listener(np.array([spawn.x, spawn.y, spec.camera_height_m]), spawn.yaw_rad)
             clip = self.binaural.mix(room, sources, head, rng, self.rir)
@@ -176,7 +193,8 @@ class EpisodeMaker:
         finally:
             settled.close()
         return Episode(episode_id, event, spawn, sees, clip, view, grid, grid.cell(centre), ex,
-                       out.spl(ex.shortest_m), out.sna(ex.fewest_actions), out.poses, shots, t)
+                       out.spl(ex.shortest_m), out.sna(ex.fewest_actions), energy, out.poses,
+                       shots, t)
 
     def _spawn(self, rng: np.random.Generator, grid: OccupancyGrid, centre: np.ndarray,
                camera: EgoCamera, data: mujoco.MjData) -> tuple[Pose, bool]:
@@ -233,5 +251,5 @@ def _with_contacts(event: FallEvent, contacts) -> FallEvent:
     return dataclasses.replace(event, contacts=tuple(contacts))
 
 
-__all__ = ["Episode", "EpisodeMaker", "Skip", "ExpertFailure", "episode_rng",
+__all__ = ["Episode", "EpisodeMaker", "FallEnergy", "Skip", "ExpertFailure", "episode_rng",
            "MIN_SPAWN_DISTANCE_M"]

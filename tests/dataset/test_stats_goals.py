@@ -1,0 +1,43 @@
+"""fallgen stats' physical goals (issue 27), on hand-made rows: each goal is met or missed
+exactly where its bound says."""
+
+from __future__ import annotations
+
+from fallgen.dataset.stats import AUDIO_MATERIALS, GOALS, goals
+
+
+def _rows(n=200, ratio=1e-3, peak=80.0, kinds=("floor", "shelf"), materials=AUDIO_MATERIALS):
+    return [{"audio_energy_ratio": ratio, "audio_peak_db_spl": peak + (i % 7),
+             "zone_kind": kinds[i % len(kinds)], "audio_material": f"m{i % materials}"}
+            for i in range(n)]
+
+
+def test_a_build_within_every_bound_meets_every_goal():
+    g = goals(_rows())
+    assert all(v["ok"] for v in g.values()), g
+
+
+def test_each_goal_fails_on_its_own_violation():
+    rows = _rows()
+    rows[3]["audio_energy_ratio"] = GOALS["energy_ratio_ceiling"] * 1.1
+    g = goals(rows)
+    assert g["energy_ratio_above_ceiling"] == {**g["energy_ratio_above_ceiling"], "value": 1,
+                                               "ok": False}
+    assert g["energy_ratio_median"]["ok"]
+    assert not goals(_rows(ratio=0.02))["energy_ratio_median"]["ok"]
+    rows = _rows()
+    rows[5]["audio_peak_db_spl"] = 20.0  # below a quiet home's noise floor
+    assert goals(rows)["peak_db_spl_range"]["outside"] == 1
+    loud = _rows(peak=115.0)
+    assert not goals(loud)["peak_db_spl_p5_p95"]["ok"]
+    shelf_loud = [dict(r, audio_peak_db_spl=r["audio_peak_db_spl"] + 20 * (r["zone_kind"] ==
+                                                                             "shelf"))
+                  for r in _rows()]
+    z = goals(shelf_loud)["zone_median_vs_floor"]
+    assert z["worst"] == "shelf" and not z["ok"]
+    assert not goals(_rows(materials=12))["audio_materials"]["ok"]
+
+
+def test_a_dataset_without_the_energy_column_says_unknown():
+    rows = [{k: v for k, v in r.items() if k != "audio_energy_ratio"} for r in _rows()]
+    assert goals(rows)["energy_ratio_above_ceiling"]["ok"] is None
