@@ -167,3 +167,20 @@ def test_every_category_radiates_a_bounded_share_of_what_its_fall_loses(world, r
         worst[(cid, mat)] = r
         assert 1e-8 < r <= AUDIO_ENERGY_CEILING, (cid, variant, mat, r)
     assert len({c for c, _ in worst}) == len(cats.ids("target"))
+
+
+def test_a_wedged_contacts_excess_impulse_makes_no_sound(world, renderer, drop_event):
+    """An impact's recorded impulse far above (1 + e) m v (an object pinched between two
+    surfaces, squeezed by resting forces) sounds like the largest impact a free body could
+    make at that speed: 20 and 40 times m v give the same sound."""
+    e = drop_event(world, "key", "house", "metal/brass", 1.0)
+    i = next(k for k, c in enumerate(e.contacts) if c.kind == "impact")
+    c = e.contacts[i]
+    m = world.categories.instance("key", "house", "metal/brass").mass_kg
+    sounds = []
+    for factor in (20, 40):
+        hit = dataclasses.replace(c, impulse_ns=factor * m * c.normal_speed_mps)
+        ev = dataclasses.replace(e, contacts=e.contacts[:i] + (hit,) + e.contacts[i + 1:])
+        sounds.append(renderer.render(ev, np.random.default_rng(0)))
+    assert np.array_equal(sounds[0], sounds[1])
+    assert _energy_ratio(renderer, ev) <= AUDIO_ENERGY_CEILING

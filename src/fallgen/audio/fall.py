@@ -326,8 +326,11 @@ class FallRenderer:
         n_other = other.frame_mat.T @ np.asarray(c.normal, float)  # force on the other: -n
         if c.kind == "impact":
             e = min(target.material.restitution, other.material.restitution)
-            j = c.impulse_ns * (1.0 + e)
             v = max(c.normal_speed_mps, 1e-3)
+            # A free body hitting a surface at v takes at most (1 + e) m v; a wedged or
+            # pinched contact's recorded impulse can be many times that (resting forces
+            # squeezing it), which is no impact: no sound is made of the excess.
+            j = min(c.impulse_ns, a.mass_kg * v) * (1.0 + e)
             h = hertz_impact(a.youngs_modulus_pa, a.poisson_ratio, b.youngs_modulus_pa,
                              b.poisson_ratio, a.contact_radius_m, b.contact_radius_m,
                              a.mass_kg, math.inf, v)
