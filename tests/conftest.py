@@ -61,6 +61,7 @@ frames = "first"
 hrtf = ""
 audio_s = 1.0
 image_source_order = 3
+ambient_noise_db_a = 30.0
 episodes_per_shard = 2
 """
 

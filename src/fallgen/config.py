@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from fallgen.audio.ambient import DEFAULT_NOISE_DB_A
 from fallgen.fields import Fields, load_toml
 from fallgen.physics.settle import SettleCriteria
 
@@ -35,6 +36,8 @@ class GenerateConfig:
     audio_s: float = 2.0
     image_source_order: int = 6
     episodes_per_shard: int = 500
+    #: the ambient noise floor at the ears, dB(A) (fallgen.audio.ambient); 0: none
+    ambient_noise_db_a: float = DEFAULT_NOISE_DB_A
 
 
 @dataclass(frozen=True)
@@ -79,6 +82,7 @@ def _generate(f: Fields) -> GenerateConfig:
         audio_s=f.float("audio_s", positive=True, hi=30.0),
         image_source_order=f.int("image_source_order", lo=0, hi=30),
         episodes_per_shard=f.int("episodes_per_shard", lo=1, hi=100_000),
+        ambient_noise_db_a=f.float("ambient_noise_db_a", lo=0.0, hi=80.0),
     )
     if sum(g.episodes) == 0:
         raise e.error(SPLITS[0], "at least one episode is needed")

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 from scipy.signal import fftconvolve, oaconvolve
 
+from fallgen.audio.ambient import ambient_noise
 from fallgen.audio.hrtf import Hrtf
 from fallgen.audio.room import (KERNEL, RirSettings, RoomAcoustics, early_arrivals,
                                 fitted_late_level, late_reverb, render_arrivals)
@@ -60,20 +61,30 @@ class BinauralClip:
     audio: np.ndarray  # (2, T) float32: ear pressure / FULL_SCALE_PA * gain; row 0 = left ear
     gain: float
     sample_rate: int
+    noise_db_a: float = 0.0  # the ambient noise floor mixed in, dB(A) (0: none)
+    #: (peak, loudest 125 ms Leq) dB SPL of the fall alone, before the noise floor was added
+    #: (None: as :meth:`levels_db_spl`)
+    fall_levels: tuple[float, float] | None = None
 
     def pressure_pa(self) -> np.ndarray:
         return self.audio.astype(float) * FULL_SCALE_PA / self.gain
 
     def levels_db_spl(self, window_s: float = 0.125) -> tuple[float, float]:
-        """(peak, loudest ``window_s`` Leq) in dB SPL re 20 uPa, the louder ear of each; the
-        125 ms window is the sound level meter's 'fast' time constant."""
-        p = self.pressure_pa()
-        peak = float(np.abs(p).max())
-        n = max(1, min(p.shape[1], int(round(window_s * self.sample_rate))))
-        c = np.cumsum(np.pad(p * p, ((0, 0), (1, 0))), axis=1)
-        leq = float(((c[:, n:] - c[:, :-n]) / n).max())
-        return (20 * np.log10(max(peak, 1e-12) / 20e-6),
-                10 * np.log10(max(leq, 1e-24) / 4e-10))
+        """(peak, loudest ``window_s`` Leq) in dB SPL re 20 uPa of the clip (noise floor
+        included), the louder ear of each; the 125 ms window is the sound level meter's
+        'fast' time constant."""
+        return levels_db_spl(self.pressure_pa(), self.sample_rate, window_s)
+
+
+def levels_db_spl(p: np.ndarray, sample_rate: int, window_s: float = 0.125
+                  ) -> tuple[float, float]:
+    """(peak, loudest ``window_s`` Leq) in dB SPL of (2, T) ear pressures (Pa), the louder
+    ear of each."""
+    peak = float(np.abs(p).max())
+    n = max(1, min(p.shape[1], int(round(window_s * sample_rate))))
+    c = np.cumsum(np.pad(p * p, ((0, 0), (1, 0))), axis=1)
+    leq = float(((c[:, n:] - c[:, :-n]) / n).max())
+    return (20 * np.log10(max(peak, 1e-12) / 20e-6), 10 * np.log10(max(leq, 1e-24) / 4e-10))
 
 
 class Binaural:
@@ -124,13 +135,16 @@ class Binaural:
         return out
 
     def mix(self, room: RoomAcoustics, sources: list[DrySource], listener: Listener,
-            rng: np.random.Generator, settings: RirSettings = RirSettings()) -> BinauralClip:
-        """The binaural clip (``length_s``) of ``sources`` heard by ``listener``."""
+            rng: np.random.Generator, settings: RirSettings = RirSettings(),
+            noise_db_a: float = 0.0) -> BinauralClip:
+        """The binaural clip (``length_s``) of ``sources`` heard by ``listener``, over an
+        ambient noise floor of ``noise_db_a`` dB(A) (:mod:`fallgen.audio.ambient`; 0: none),
+        drawn from ``rng`` after everything else."""
         fs = settings.sample_rate
         n = int(round(settings.length_s * fs))
         out = np.zeros((2, n))
         if not sources:
-            return BinauralClip(out.astype(np.float32), 1.0, fs)
+            return _clip(out, rng, noise_db_a, fs, n)
         loudest = max(range(len(sources)), key=lambda i: float(np.abs(sources[i].signal).max()))
         total = np.zeros(n)
         late_from = (0.0, np.zeros(len(room.bands_hz)))
@@ -148,10 +162,19 @@ class Binaural:
         late = self.late(room, late_from[1], late_from[0], n, fs, rng)
         out += fftconvolve(total[None, :].astype(CONVOLUTION_DTYPE),
                            late.astype(CONVOLUTION_DTYPE), axes=-1)[:, :n]
-        audio = out / FULL_SCALE_PA
-        peak = float(np.abs(audio).max())
-        gain = 1.0 if peak <= CEILING else CEILING / peak
-        return BinauralClip((audio * gain).astype(np.float32), gain, fs)
+        return _clip(out, rng, noise_db_a, fs, n)
+
+
+def _clip(pressure: np.ndarray, rng: np.random.Generator, noise_db_a: float, fs: int,
+          n: int) -> BinauralClip:
+    """The clip of (2, n) ear pressures plus the noise floor, scaled down if it would clip."""
+    fall = levels_db_spl(pressure, fs)
+    if noise_db_a > 0:
+        pressure = pressure + ambient_noise(n, fs, noise_db_a, rng)
+    audio = pressure / FULL_SCALE_PA
+    peak = float(np.abs(audio).max())
+    gain = 1.0 if peak <= CEILING else CEILING / peak
+    return BinauralClip((audio * gain).astype(np.float32), gain, fs, float(noise_db_a), fall)
 
 
 def binaural_rir(room: RoomAcoustics, source, listener: Listener, hrtf: Hrtf,
@@ -162,9 +185,10 @@ def binaural_rir(room: RoomAcoustics, source, listener: Listener, hrtf: Hrtf,
 
 
 def mix(room: RoomAcoustics, sources: list[DrySource], listener: Listener, hrtf: Hrtf,
-        rng: np.random.Generator, settings: RirSettings = RirSettings()) -> BinauralClip:
+        rng: np.random.Generator, settings: RirSettings = RirSettings(),
+        noise_db_a: float = 0.0) -> BinauralClip:
     """One clip (see :meth:`Binaural.mix`; keep a :class:`Binaural` to render many)."""
-    return Binaural(hrtf).mix(room, sources, listener, rng, settings)
+    return Binaural(hrtf).mix(room, sources, listener, rng, settings, noise_db_a)
 
 
 def write_wav(path: Path, clip: BinauralClip) -> None:

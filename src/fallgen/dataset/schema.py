@@ -57,8 +57,13 @@ COLUMNS: dict[str, tuple[str, str, str]] = {
     "grid_resolution_m": ("double", "m", "occupancy cell size"),
     "audio_gain": ("double", "", "audio = ear pressure / 20 Pa * audio_gain (1 unless the "
                    "clip would pass 0.99)"),
-    "audio_peak_db_spl": ("double", "dB SPL", "peak ear pressure, louder ear"),
-    "audio_leq_db_spl": ("double", "dB SPL", "loudest 125 ms equivalent level, louder ear"),
+    "audio_peak_db_spl": ("double", "dB SPL", "the fall's peak ear pressure, louder ear "
+                          "(without the noise floor)"),
+    "audio_leq_db_spl": ("double", "dB SPL", "the fall's loudest 125 ms equivalent level, "
+                         "louder ear (without the noise floor)"),
+    "audio_noise_db_a": ("double", "dB(A)", "the ambient noise floor mixed into the clip "
+                         "(a quiet home's: RC neutral spectrum, diffuse between the ears; 0: "
+                         "none), its A-weighted level over the clip"),
     "audio_radiated_j": ("double", "J", "acoustic energy the fall's dry sound radiates (every "
                          "source, its pressure at 1 m taken as the same in every direction)"),
     "fall_energy_lost_j": ("double", "J", "mechanical energy the fall loses in its contacts "

@@ -58,7 +58,8 @@ def row_of(ep, split: str, media: str, index: int, root_seed: int,
     ``skipped``: the (event_id, reason) pairs tried before ``ep.event``."""
     e = ep.event
     plan = ep.expert.plan
-    peak, leq = ep.audio.levels_db_spl()
+    # the fall's own levels (the noise floor is its own column)
+    peak, leq = ep.audio.fall_levels or ep.audio.levels_db_spl()
     row = {
         "episode_id": ep.episode_id, "split": split, "event_id": e.event_id,
         "room_variant": e.room_variant, "room_kind": e.room_kind, "zone": e.zone,
@@ -80,6 +81,7 @@ def row_of(ep, split: str, media: str, index: int, root_seed: int,
         "goal_tilt_deg": plan.goal.tilt_deg,
         "target_cell": list(ep.target_cell), "grid_resolution_m": ep.grid.resolution,
         "audio_gain": ep.audio.gain, "audio_peak_db_spl": peak, "audio_leq_db_spl": leq,
+        "audio_noise_db_a": ep.audio.noise_db_a,
         "audio_radiated_j": ep.energy.radiated_j, "fall_energy_lost_j": ep.energy.lost_j,
         "audio_energy_ratio": ep.energy.ratio,
         "sample_rate": ep.audio.sample_rate,

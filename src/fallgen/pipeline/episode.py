@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+from fallgen.audio.ambient import DEFAULT_NOISE_DB_A
 from fallgen.audio.fall import FallRenderer
 from fallgen.audio.impact import radiated_energy_j
 from fallgen.audio.mix import Binaural, BinauralClip, Listener
@@ -107,8 +108,10 @@ class EpisodeMaker:
     """Makes episodes of one world (keeps the modal models and the HRTF between episodes)."""
 
     def __init__(self, world: World, binaural: Binaural, spec: AgentSpec = AgentSpec(),
-                 rir: RirSettings = RirSettings()) -> None:
+                 rir: RirSettings = RirSettings(), noise_db_a: float = DEFAULT_NOISE_DB_A
+                 ) -> None:
         self.world, self.binaural, self.spec, self.rir = world, binaural, spec, rir
+        self.noise_db_a = noise_db_a
         self.sounds = FallRenderer(world)
         self.labels = world_category_labels(world)  # one segmentation table for a dataset
         self._room_samples: dict[str, np.ndarray] = {}  # variant -> the room's occupancy layer
@@ -181,7 +184,7 @@ class EpisodeMaker:
                                     for src in sources), self.sounds.energy_lost_j(replayed))
             room = RoomAcoustics.from_shoebox(variant.shoebox())
             head = Listener(np.array([spawn.x, spawn.y, spec.camera_height_m]), spawn.yaw_rad)
-            clip = self.binaural.mix(room, sources, head, rng, self.rir)
+            clip = self.binaural.mix(room, sources, head, rng, self.rir, self.noise_db_a)
             lap("audio")
             view = camera.render(data, spawn)
             lap("render")
