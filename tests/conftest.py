@@ -48,6 +48,7 @@ zones = "z0[0-3]"
 events_per_zone = 1
 max_trials_per_zone = 4
 drop_height_m = [1.5, 2.8]
+min_fall_m = 0.3             # every kept event falls at least this far before its first impact
 push_speed_mps = 0.15
 spin_radps = 2.0
 settle_lin_mps = 0.01

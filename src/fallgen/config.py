@@ -17,6 +17,9 @@ class RehearseConfig:
     events_per_zone: int = 8
     max_trials_per_zone: int = 60
     drop_height_m: tuple[float, float] = (1.5, 2.8)
+    #: every kept event falls at least this far before its first impact (a zone under a
+    #: cover too low for that is reached by a fall beside it, thrown in)
+    min_fall_m: float = 0.3
     push_speed_mps: float = 0.15
     spin_radps: float = 2.0
     #: from the flat keys settle_lin_mps, settle_ang_radps, settle_hold_s, timeout_s
@@ -56,6 +59,7 @@ def _rehearse(f: Fields) -> RehearseConfig:
         events_per_zone=f.int("events_per_zone", lo=1, hi=1000),
         max_trials_per_zone=f.int("max_trials_per_zone", lo=1, hi=100000),
         drop_height_m=f.floats("drop_height_m", n=2, lo=0.05, hi=6.0, increasing=True),
+        min_fall_m=f.float("min_fall_m", lo=0.0, hi=3.0),
         push_speed_mps=f.float("push_speed_mps", lo=0.0, hi=5.0),
         spin_radps=f.float("spin_radps", lo=0.0, hi=50.0),
         settle=SettleCriteria(

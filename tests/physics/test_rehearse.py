@@ -199,3 +199,31 @@ def test_a_start_overlap_is_rejected_without_simulating(world):
                                                 (0.0, 0.0, 0.0), (0.0, 0.0, 0.0),
                                                 SettleCriteria())
     assert not overlap and res.steps > 0 and res.settled and contacts
+
+
+def test_covered_zones_are_reached_by_real_falls(world, tmp_path):
+    """Every kept event falls at least min_fall_m before its first impact, also into a shelf
+    between two boards (0.46 m: small objects start inside, higher) and under a sofa (9 cm:
+    thrown beside it, sliding under); a stricter minimum leaves no shorter fall."""
+    from fallgen.physics.drop import fall_height_m
+
+    cases = [("kitchen_galley-l1-m1", ("shelf", "counter_top")),
+             ("study_lounge-l1-m1", ("under_furniture",))]
+    started_beside = 0
+    for vid, kinds in cases:
+        v = world.variant(vid)
+        events = []
+        for kind in kinds:  # the first zone of each kind
+            zone = next(z for z in v.zones if z.kind == kind)
+            r = RehearseConfig(rooms=vid, zones=zone.id, events_per_zone=2,
+                               max_trials_per_zone=40, min_fall_m=0.3,
+                               settle=SettleCriteria(timeout_s=4.0))
+            got, stats = rehearse_variant(world, vid, BuildConfig(2022, tmp_path, r,
+                                                                  tmp_path / "cfg.toml"))
+            assert got, (vid, kind, stats.as_dict())
+            events += got
+        for e in events:
+            assert fall_height_m(e.contacts, e.start_linvel[2]) >= 0.3, e.event_id
+            zone = v.zone(e.zone)
+            started_beside += not zone.drop.contains(np.array([e.start_pos]), 1e-6)[0]
+    assert started_beside > 0  # some fell from outside their zone's cavity

@@ -32,7 +32,8 @@ PHYSICS = PhysicsSettings(visual_meshes=False)
 
 #: Why a trial was not kept; every trial ends with exactly one of these (or "kept").
 REASONS = ("kept", "does_not_fit", "start_overlap", "unstable", "not_settled", "left_room",
-           "tunnelled", "outside_zone")
+           "tunnelled", "outside_zone", "short_fall")
+GRAVITY = 9.81
 
 
 def room_key(variant_id: str) -> int:
@@ -234,29 +235,36 @@ def run_trial(world: World, variant: RoomVariant, zone: Zone, trial: int,
     distractors = _settle_distractors(world, variant, zone, cid, occluders, rng)
     r = _radius(target)
     x, y = _xy(rng, zone, r)
+    # high enough to fall min_fall_m onto the zone's support
+    lowest = zone.volume.zmin + cfg.min_fall_m + r
     if zone.open_above:
-        lo = max(cfg.drop_height_m[0], zone.drop.zmin + r)
+        lo = max(cfg.drop_height_m[0], zone.drop.zmin + r, lowest)
         hi = min(cfg.drop_height_m[1], zone.drop.zmax - r)
     else:
-        lo, hi = zone.drop.zmin + r, zone.drop.zmax - r
+        lo, hi = max(zone.drop.zmin + r, lowest), zone.drop.zmax - r
     quat = _uniform_quat(rng)
+    throw = (0.0, 0.0)
     if hi < lo:
-        if not zone.open_above:
-            # Too tall for the cavity in a random orientation: lay it flat instead.
-            ext = target.extents_m
-            thin = int(np.argmin(ext))
-            half = float(ext[thin]) / 2 + 0.002
-            lo = hi = zone.drop.zmin + half + 0.005
-            if lo + half > zone.drop.zmax:
-                return TrialOutcome("does_not_fit", None, cid)
-            quat = {0: (math.cos(math.pi / 4), 0.0, math.sin(math.pi / 4), 0.0),
-                    1: (math.cos(math.pi / 4), math.sin(math.pi / 4), 0.0, 0.0),
-                    2: (1.0, 0.0, 0.0, 0.0)}[thin]
-        else:
-            lo = hi
-    z = float(rng.uniform(lo, hi))
-    linvel = (float(rng.normal(0, cfg.push_speed_mps)), float(rng.normal(0, cfg.push_speed_mps)),
-              0.0)
+        # No room above the zone for such a fall (under a sofa, between shelf boards, a
+        # cabinet top under the ceiling): it falls beside the zone, thrown toward it, as an
+        # object knocked off something nearby, and is kept if it ends inside.
+        top = variant.size_m[2] - r
+        start = _beside(rng, variant, zone, r, lowest, min(lowest + BESIDE_SPAN_M, top)) \
+            if lowest <= top else None
+        if start is None:
+            return TrialOutcome("does_not_fit", None, cid)
+        x, y, z, throw = start
+    else:
+        z = float(rng.uniform(lo, hi))
+    if throw != (0.0, 0.0):  # fast enough to reach the zone while falling onto it
+        t_fall = math.sqrt(2 * max(z - zone.volume.zmin - r, 1e-3) / GRAVITY)
+        low = zone.drop.zmax - zone.volume.zmin < 2 * r + 0.02  # and, under a low cover,
+        # on to slide under it (the zone's depth at a sliding friction of ~0.4)
+        k = float(rng.uniform(0.7, 1.4)) / t_fall if not low else \
+            (float(rng.uniform(0.4, 1.5)) / max(math.hypot(*throw), 1e-3))
+        throw = (throw[0] * k, throw[1] * k)
+    linvel = (float(rng.normal(0, cfg.push_speed_mps)) + throw[0],
+              float(rng.normal(0, cfg.push_speed_mps)) + throw[1], 0.0)
     angvel = tuple(float(a) for a in rng.normal(0, cfg.spin_radps, 3))
     start = (float(x), float(y), z)
     objs = _scene_objects(world, target, start, quat, distractors, occluders)
@@ -265,6 +273,8 @@ def run_trial(world: World, variant: RoomVariant, zone: Zone, trial: int,
     if overlap:
         return TrialOutcome("start_overlap", None, cid)
     reason = _judge(variant, zone, res, com)
+    if reason == "kept" and fall_height_m(contacts, linvel[2]) < cfg.min_fall_m - 1e-9:
+        reason = "short_fall"  # hit something (a board above, an edge) too soon
     if reason != "kept":
         return TrialOutcome(reason, None, cid)
     event = FallEvent(
@@ -278,6 +288,63 @@ def run_trial(world: World, variant: RoomVariant, zone: Zone, trial: int,
         occluders=tuple(occluders), contacts=tuple(contacts),
         sweep_xy=(*map(float, res.xy_min), *map(float, res.xy_max)))
     return TrialOutcome("kept", event, cid)
+
+
+#: A start beside a zone is drawn this far (m) above the lowest height of a long enough fall.
+BESIDE_SPAN_M = 0.5
+#: Sides tried for a start beside a zone before giving up.
+BESIDE_TRIES = 12
+
+
+def _beside(rng: np.random.Generator, variant: RoomVariant, zone: Zone, r: float,
+            z_lo: float, z_hi: float) -> tuple[float, float, float, tuple[float, float]] | None:
+    """A start beside ``zone``'s drop region, for a zone with no room above it for a long
+    enough fall: (x, y, z, the horizontal displacement to a point drawn in the region; the
+    caller divides it by the fall's time). The side is drawn uniformly around the region, the
+    start ``r`` + 5-30 cm (60 under a low cover) outside its footprint at a height in [``z_lo``, ``z_hi``]; a side is
+    taken when the start and the first 70 % of the throw's path (a parabola down to the zone's
+    support) clear every furniture part by ``r`` / 2 (a shelf's side panels, a wall cabinet:
+    only the open side of a cavity will do). None when no side of ``BESIDE_TRIES`` does."""
+    parts = [p.box for _, p in variant.parts()]
+    # a cavity lower than the object (under a sofa) is entered sliding, not flying
+    low = zone.drop.zmax - zone.volume.zmin < 2 * r + 0.02
+    c, s = math.cos(zone.drop.yaw), math.sin(zone.drop.yaw)
+    hx, hy = zone.drop.half[0], zone.drop.half[1]
+    lx_room, ly_room = variant.size_m[0], variant.size_m[1]
+    for _ in range(BESIDE_TRIES):
+        gx, gy = _xy(rng, zone, r)  # where it is thrown to
+        a = float(rng.uniform(0, 2 * math.pi))
+        off = float(rng.uniform(0.05, 0.60 if low else 0.30))
+        z = float(rng.uniform(z_lo, max(z_lo, z_hi)))
+        ul = (math.cos(a), math.sin(a))  # in the region's frame
+        t = min(hx / max(abs(ul[0]), 1e-9), hy / max(abs(ul[1]), 1e-9)) + r + off
+        lx, ly = ul[0] * t, ul[1] * t
+        x = zone.drop.center[0] + c * lx - s * ly
+        y = zone.drop.center[1] + s * lx + c * ly
+        if not (r < x < lx_room - r and r < y < ly_room - r):
+            continue
+        if low:  # aim at the floor just before the opening: it lands and slides in
+            e = t - r - off - 0.02
+            gx = zone.drop.center[0] + c * ul[0] * e - s * ul[1] * e
+            gy = zone.drop.center[1] + s * ul[0] * e + c * ul[1] * e
+        # the throw's path: straight in plan, falling as t^2 to the support
+        # (up to 70 % of the way: the end lies in the zone, under its cover, where a low
+        # cavity -- under a sofa -- is entered sliding, not flying)
+        u = np.linspace(0.0, 0.7, 10)[:, None]
+        zs = z + (zone.volume.zmin + r - z) * u[:, 0] ** 2
+        path = np.column_stack([x + (gx - x) * u[:, 0], y + (gy - y) * u[:, 0], zs])
+        if not any(b.contains(path, 0.5 * r).any() for b in parts):
+            return x, y, z, (gx - x, gy - y)
+    return None
+
+
+def fall_height_m(contacts, vz0: float = 0.0) -> float:
+    """How far the centre of mass falls before the first contact: v0z t + g t^2 / 2 down
+    (free fall from the start; inf without any contact)."""
+    if not contacts:
+        return math.inf
+    t = min(c.time_s for c in contacts)
+    return -vz0 * t + 0.5 * GRAVITY * t * t
 
 
 def _judge(variant: RoomVariant, zone: Zone, res: SettleResult, com: np.ndarray) -> str:
