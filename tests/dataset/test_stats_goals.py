@@ -8,6 +8,7 @@ from fallgen.dataset.stats import AUDIO_MATERIALS, GOALS, goals
 
 def _rows(n=200, ratio=1e-3, peak=80.0, kinds=("floor", "shelf"), materials=AUDIO_MATERIALS):
     return [{"audio_energy_ratio": ratio, "audio_peak_db_spl": peak + (i % 7),
+             "fall_height_m": 0.3 + 0.01 * (i % 50),
              "zone_kind": kinds[i % len(kinds)], "audio_material": f"m{i % materials}"}
             for i in range(n)]
 
@@ -36,6 +37,9 @@ def test_each_goal_fails_on_its_own_violation():
     z = goals(shelf_loud)["zone_median_vs_floor"]
     assert z["worst"] == "shelf" and not z["ok"]
     assert not goals(_rows(materials=12))["audio_materials"]["ok"]
+    rows = _rows()
+    rows[7]["fall_height_m"] = 0.05  # barely a fall
+    assert goals(rows)["fall_height"] == {**goals(rows)["fall_height"], "short": 1, "ok": False}
 
 
 def test_a_dataset_without_the_energy_column_says_unknown():

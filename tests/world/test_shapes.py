@@ -92,6 +92,8 @@ MASS_G: dict[tuple[str, str, str], tuple[float, float]] = {
     ("cup", "*", "ceramic"): (100, 450),
     ("cup", "*", "glass"): (120, 400),
     ("cup", "*", "plastic_hard"): (40, 200),
+    # paper coffee cups (8-12 oz): single wall 9-12 g, double-walled 15-30 g
+    ("cup", "paper", "*"): (9, 35),
     # cork coaster 4-10 g; stone/ceramic absorbent coaster 150-200 g; wooden 30-60 g
     ("coaster", "*", "wood_soft/cork"): (3, 15),
     # pulpboard beer mats (107 mm, 1.5-2 mm): 6-12 g
@@ -100,6 +102,8 @@ MASS_G: dict[tuple[str, str, str], tuple[float, float]] = {
     ("coaster", "*", "stone"): (100, 300),
     ("coaster", "*", "wood_medium"): (20, 80),
     ("coaster", "*", "wood_hard"): (20, 80),
+    # round leather coasters (10 cm, 3-4 mm): 15-30 g
+    ("coaster", "leather", "*"): (10, 40),
     # bud vase 150-400 g; 20-25 cm glass or stoneware vase 0.7-1.5 kg
     ("vase", "bud", "*"): (120, 450),
     ("vase", "*", "*"): (500, 1800),
@@ -107,6 +111,8 @@ MASS_G: dict[tuple[str, str, str], tuple[float, float]] = {
     ("key", "*", "*"): (3, 15),
     # natural wine cork 24 x 44 mm 3.5-6 g; small tapered stoppers 1-3 g
     ("bottle_cork", "*", "*"): (1, 8),
+    # tapered rubber bottle stoppers (22 mm top, 25 mm tall): 8-15 g
+    ("bottle_cork", "rubber_stopper", "*"): (5, 20),
     # plastic toy car 50-250 g, wooden 40-200 g; vinyl bath duck 30-60 g; foam ball 5-30 g
     ("toy", "car", "plastic_hard"): (50, 250),
     ("toy", "car", "wood_medium"): (40, 200),
@@ -133,6 +139,8 @@ MASS_G: dict[tuple[str, str, str], tuple[float, float]] = {
     ("box", "tea_tin", "*"): (40, 150),
     # small rigid cardboard gift boxes (12 x 9 x 6 cm, 1.5 mm board): 30-70 g
     ("box", "gift", "*"): (25, 80),
+    # small leather jewellery / watch cases: 50-120 g
+    ("box", "leather_case", "*"): (40, 150),
     # Peugeot-style wooden mills: 12 cm ~100-150 g, 22 cm ~300 g, 30 cm ~400-500 g
     ("pepper_mill", "*", "*"): (80, 600),
     # glass jar grinders 200-350 g; acrylic grinders 100-200 g

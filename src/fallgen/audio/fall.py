@@ -40,7 +40,7 @@ from fallgen.audio.impact import ModalHit, SoundingBody, render
 from fallgen.audio.mix import DrySource
 from fallgen.audio.modes import ModalModel, ModalSettings, modal_model
 from fallgen.physics.contacts import ContactEvent
-from fallgen.physics.events import FallEvent
+from fallgen.physics.events import GRAVITY, FallEvent
 from fallgen.world.library import World
 from fallgen.world.materials import ObjectMaterial
 from fallgen.world.objects import ObjectInstance
@@ -48,7 +48,6 @@ from fallgen.world.scene import Scene, build_scene
 from fallgen.world.shell import ThinShell
 
 PATCH_M = 0.6
-GRAVITY = 9.81  # m/s^2, the rehearsal's (physics.drop)
 PATCH_THICKNESS_M = 0.02
 MOUNTED_LOSS_FACTOR = 0.05
 #: Where a floor or wall patch is struck, as a fraction of its side from the centre (an

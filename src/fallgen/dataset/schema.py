@@ -32,6 +32,8 @@ COLUMNS: dict[str, tuple[str, str, str]] = {
     "settle_quat": ("list<double>[4]", "", "resting orientation (w, x, y, z)"),
     "settle_time_s": ("double", "s", "time from release to rest"),
     "contacts": ("int64", "", "contact events of the fall (rehearsal)"),
+    "fall_height_m": ("double", "m", "how far the object's centre of mass falls before its "
+                      "first contact (at least the rehearsal's min_fall_m)"),
     "spawn_x": ("double", "m", "robot spawn position x"),
     "spawn_y": ("double", "m", "robot spawn position y"),
     "spawn_heading": ("int64", "30 deg", "spawn heading 0..11, counter-clockwise from +x"),

@@ -26,7 +26,7 @@ COLUMNS = ["episode_id", "split", "room_kind", "room_variant", "category", "audi
            "audio_peak_db_spl", "audio_leq_db_spl", "event_attempts", "skipped_events",
            "spawn_sees_object"]
 #: read when present (datasets built before they existed lack them)
-OPTIONAL = ["audio_energy_ratio"]
+OPTIONAL = ["audio_energy_ratio", "fall_height_m"]
 #: The paper's audio materials: every one should be a target's.
 AUDIO_MATERIALS = 14
 #: Physical goals a paper-size build is checked against (issue 27): the share of the fall's
@@ -37,7 +37,7 @@ AUDIO_MATERIALS = 14
 GOALS = {"energy_ratio_ceiling": AUDIO_ENERGY_CEILING,
          "energy_ratio_median": (1e-4, 1e-2),
          "peak_db_spl": (35.0, 125.0), "peak_db_spl_p5_p95": (55.0, 110.0),
-         "zone_median_vs_floor_db": 15.0, "material_min_share": 0.01}
+         "zone_median_vs_floor_db": 15.0, "material_min_share": 0.01, "min_fall_m": 0.3}
 PERCENTILES = (5, 25, 50, 75, 95)
 
 
@@ -155,6 +155,14 @@ def goals(rows: list[dict]) -> dict:
             g["zone_median_vs_floor"] = {"value": {k: round(v - f50, 1) for k, v in by.items()},
                                          "worst": worst, "bound": f"within {lim:g} dB",
                                          "ok": abs(by[worst] - f50) <= lim}
+    fall = np.array([r.get("fall_height_m", np.nan) for r in rows], float)
+    lim = GOALS["min_fall_m"]
+    if len(fall) and np.isfinite(fall).all():
+        short = int((fall < lim - 1e-9).sum())
+        g["fall_height"] = {"value": float(fall.min()), "short": short,
+                            "bound": f"every fall >= {lim:g} m", "ok": short == 0}
+    else:
+        g["fall_height"] = {"value": None, "bound": f"every fall >= {lim:g} m", "ok": None}
     mats = Counter(r["audio_material"] for r in rows)
     if rows:
         share = min(mats.values()) / len(rows)

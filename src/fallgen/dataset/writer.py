@@ -25,6 +25,7 @@ import pyarrow.parquet as pq
 from fallgen.atomic import commit
 from fallgen.dataset.schema import COLUMNS
 from fallgen.nav.agent import ACTIONS
+from fallgen.physics.events import fall_height_m
 
 GZIP = 4
 #: Arrays stored without compression: float32 audio is noise in its low mantissa bytes, so
@@ -69,6 +70,7 @@ def row_of(ep, split: str, media: str, index: int, root_seed: int,
         "start_pos": list(e.start_pos), "start_quat": list(e.start_quat),
         "settle_pos": list(e.settle_pos), "settle_quat": list(e.settle_quat),
         "settle_time_s": e.settle_time_s, "contacts": len(e.contacts),
+        "fall_height_m": fall_height_m(e.contacts, e.start_linvel[2]),
         "spawn_x": ep.spawn.x, "spawn_y": ep.spawn.y, "spawn_heading": ep.spawn.heading,
         "spawn_yaw_rad": ep.spawn.yaw_rad, "spawn_sees_object": ep.spawn_sees_object,
         "expert_actions": list(plan.actions),

@@ -19,7 +19,7 @@ import numpy as np
 
 from fallgen.config import RehearseConfig
 from fallgen.physics.contacts import ContactEvent, ContactRecorder
-from fallgen.physics.events import FallEvent, ObjectSpec, Placement
+from fallgen.physics.events import GRAVITY, FallEvent, ObjectSpec, Placement, fall_height_m
 from fallgen.physics.settle import (SettleCriteria, SettleResult, mujoco_warnings,
                                    simulate_until_settled)
 from fallgen.world.library import World
@@ -33,7 +33,6 @@ PHYSICS = PhysicsSettings(visual_meshes=False)
 #: Why a trial was not kept; every trial ends with exactly one of these (or "kept").
 REASONS = ("kept", "does_not_fit", "start_overlap", "unstable", "not_settled", "left_room",
            "tunnelled", "outside_zone", "short_fall")
-GRAVITY = 9.81
 
 
 def room_key(variant_id: str) -> int:
@@ -301,10 +300,11 @@ def _beside(rng: np.random.Generator, variant: RoomVariant, zone: Zone, r: float
     """A start beside ``zone``'s drop region, for a zone with no room above it for a long
     enough fall: (x, y, z, the horizontal displacement to a point drawn in the region; the
     caller divides it by the fall's time). The side is drawn uniformly around the region, the
-    start ``r`` + 5-30 cm (60 under a low cover) outside its footprint at a height in [``z_lo``, ``z_hi``]; a side is
-    taken when the start and the first 70 % of the throw's path (a parabola down to the zone's
-    support) clear every furniture part by ``r`` / 2 (a shelf's side panels, a wall cabinet:
-    only the open side of a cavity will do). None when no side of ``BESIDE_TRIES`` does."""
+    start ``r`` + 5-30 cm (60 under a low cover) outside its footprint at a height in
+    [``z_lo``, ``z_hi``]; a side is taken when the start and the first 70 % of the throw's
+    path (a parabola down to the zone's support) clear every furniture part by ``r`` / 2 (a
+    shelf's side panels, a wall cabinet: only the open side of a cavity will do). None when
+    no side of ``BESIDE_TRIES`` does."""
     parts = [p.box for _, p in variant.parts()]
     # a cavity lower than the object (under a sofa) is entered sliding, not flying
     low = zone.drop.zmax - zone.volume.zmin < 2 * r + 0.02
@@ -336,15 +336,6 @@ def _beside(rng: np.random.Generator, variant: RoomVariant, zone: Zone, r: float
         if not any(b.contains(path, 0.5 * r).any() for b in parts):
             return x, y, z, (gx - x, gy - y)
     return None
-
-
-def fall_height_m(contacts, vz0: float = 0.0) -> float:
-    """How far the centre of mass falls before the first contact: v0z t + g t^2 / 2 down
-    (free fall from the start; inf without any contact)."""
-    if not contacts:
-        return math.inf
-    t = min(c.time_s for c in contacts)
-    return -vz0 * t + 0.5 * GRAVITY * t * t
 
 
 def _judge(variant: RoomVariant, zone: Zone, res: SettleResult, com: np.ndarray) -> str:

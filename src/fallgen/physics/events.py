@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, fields
 
 import pyarrow as pa
@@ -58,6 +59,18 @@ class FallEvent:
     # the target's body origin's (min x, min y, max x, max y) over every step of the fall
     # (None in rehearsals made before it was recorded): where an agent cannot touch the fall
     sweep_xy: tuple[float, float, float, float] | None = None
+
+
+GRAVITY = 9.81  # m/s^2, MuJoCo's default (the scenes keep it)
+
+
+def fall_height_m(contacts, vz0: float = 0.0) -> float:
+    """How far the centre of mass falls before the first contact: v0z t + g t^2 / 2 down
+    (free fall from the start; inf without any contact)."""
+    if not contacts:
+        return math.inf
+    t = min(c.time_s for c in contacts)
+    return -vz0 * t + 0.5 * GRAVITY * t * t
 
 
 _V3 = pa.list_(pa.float64(), 3)
