@@ -159,7 +159,7 @@ def test_every_category_radiates_a_bounded_share_of_what_its_fall_loses(world, r
     cases = [(cid, cats.categories[cid].variants[0].name, mat, 1.0)
              for cid in cats.ids("target")
              for mat in sorted(cats.categories[cid].variants[0].materials)]
-    cases.append(("toaster", "steel", "metal", 1.5))
+    cases.append(("toaster", "steel", "metal/appliance", 1.5))
     worst = {}
     for cid, variant, mat, height in cases:
         e = drop_event(world, cid, variant, mat, height)

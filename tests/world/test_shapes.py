@@ -31,6 +31,7 @@ DENSITY = {
     "metal": 7850.0,  # steel
     "metal/aluminium": 2700.0,
     "metal/brass": 8500.0,
+    "metal/appliance": 7850.0,
     "metal/battery_cell": 2800.0,
     "ceramic": 2400.0,
     "stone": 2700.0,
@@ -152,7 +153,7 @@ MASS_G: dict[tuple[str, str, str], tuple[float, float]] = {
     ("bottle", "beer", "*"): (150, 350),
     ("bottle", "pet", "*"): (8, 40),
     # 2-slice toasters: stainless 1.5-2.5 kg, plastic housing 0.8-1.3 kg
-    ("toaster", "*", "metal"): (1000, 2600),
+    ("toaster", "*", "metal/appliance"): (1000, 2600),
     ("toaster", "*", "plastic_hard"): (600, 1500),
     # red wine glass 150-250 g, champagne flute 100-180 g
     ("wineglass", "*", "*"): (80, 300),
