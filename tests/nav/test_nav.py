@@ -59,7 +59,8 @@ def test_room_layer_plus_objects_is_the_whole_grid(world):
     rng = np.random.default_rng(0)
     for vid in ("kitchen_galley-l1-m1", "study_office-l2-m1"):
         v = world.variant(vid)
-        objs = [PlacedObject(f"d{k}", world.categories.instance("toaster", "steel", "metal"),
+        toaster = world.categories.instance("toaster", "steel", "metal/appliance")
+        objs = [PlacedObject(f"d{k}", toaster,
                              (float(rng.uniform(0.5, v.size_m[0] - 0.5)),
                               float(rng.uniform(0.5, v.size_m[1] - 0.5)), 0.2), free=False)
                 for k in range(4)]
@@ -86,7 +87,7 @@ def test_objects_of_a_view_scene_occupy_their_visual_boxes(world):
 
     rng = np.random.default_rng(1)
     v = world.variant("kitchen_galley-l1-m1")
-    for cat, variant, material in (("toaster", "steel", "metal"), ("jug", None, None)):
+    for cat, variant, material in (("toaster", "steel", "metal/appliance"), ("jug", None, None)):
         c = world.categories[cat]
         variant = variant or c.variants[0].name
         material = material or next(iter(c.variants[0].materials))
