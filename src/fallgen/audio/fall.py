@@ -19,8 +19,10 @@ For each contact event of a :class:`~fallgen.physics.events.FallEvent`:
 Bodies: the object's modal model (its mesh, material, scale); a furniture part's from its box or
 cylinder; a floor or wall as a free ``PATCH_M`` square panel of ``PATCH_THICKNESS_M`` in the
 surface's impact material (a floor is not a free plate: its loss factor is raised to at least
-``MOUNTED_LOSS_FACTOR`` for the structure it is fixed to). Every body also radiates its rigid-body
-acceleration noise. Output: float64 pressure at 1 m in pascals, no normalisation.
+``MOUNTED_LOSS_FACTOR`` for the structure it is fixed to). Objects also radiate their rigid-body
+acceleration noise (a hit jerks them as a whole); furniture parts and room surfaces are held by
+the rest of their structure and only ring (a light basket bottom jerked as a free body made
+137 dB at 1 m). Output: float64 pressure at 1 m in pascals, no normalisation.
 """
 
 from __future__ import annotations
@@ -73,6 +75,9 @@ class _Body:
     frame_mat: np.ndarray  # (3, 3) world rotation of that frame
     material: ObjectMaterial
     patch: bool = False  # a floor/wall/ceiling panel standing in for a large surface
+    #: a free body (an object): a hit jerks it as a whole, which radiates (acceleration
+    #: noise); a furniture part or a room surface is held by the rest and only rings
+    free: bool = True
     hits: list[ModalHit] = field(default_factory=list)
     group: list[int] = field(default_factory=list)  # source group of each hit
 
@@ -81,7 +86,7 @@ class _Body:
         hits = self.hits if group is None else \
             [h for h, g in zip(self.hits, self.group) if g == group]
         return render(self.sounding, hits, s.length_s, s.sample_rate,
-                      volume_m3=None if self.patch else self.volume_m3)
+                      volume_m3=self.volume_m3 if self.free else None)
 
     def local(self, p_world) -> np.ndarray:
         return self.frame_mat.T @ (np.asarray(p_world, float) - self.frame_pos)
@@ -212,7 +217,7 @@ class FallRenderer:
                 if gtype == int(mujoco.mjtGeom.mjGEOM_CYLINDER) else float(np.prod(2 * size[:3]))
         ref = self._ref(key, lambda: (mesh.vertices, mesh.faces, nu))
         body = _sounding(ref, mat, 1.0, mat.density_kg_m3 * vol, math.inf, MOUNTED_LOSS_FACTOR)
-        return _Body(body, vol, pos, rot, mat, patch=is_panel(owner))
+        return _Body(body, vol, pos, rot, mat, patch=is_panel(owner), free=False)
 
     def energy_lost_j(self, event: FallEvent) -> float:
         """The mechanical energy the fall loses, all of it in its contacts: the drop of the
