@@ -166,3 +166,25 @@ def test_heap_trimmer_waits_for_growth_above_what_a_trim_left(monkeypatch):
     t = G.HeapTrimmer(above_mb=896, hysteresis_mb=64)
     assert [t() for _ in range(6)] == [True, False, False, True, False, True]
     assert t.trims == len(calls) == 3 and t.left_mb == 860
+
+
+def test_resuming_into_another_versions_shards_is_an_error(tmp_path):
+    """A shard whose rows have other columns (made by another fallgen) is not kept as done:
+    resuming would mix two versions' episodes; one line naming the file and 'columns'."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from fallgen.dataset.schema import COLUMNS
+    from fallgen.errors import InputError
+    from fallgen.pipeline.generate import ShardJob
+
+    job = ShardJob("train", 0, 1, "kitchen", ())
+    assert not job.done(tmp_path)
+    (tmp_path / "data").mkdir()
+    path = tmp_path / "data" / f"{job.name}.parquet"
+    pq.write_table(pa.table({c: [] for c in list(COLUMNS)[:-1]}), path)
+    with pytest.raises(InputError, match="columns") as e:
+        job.done(tmp_path)
+    assert str(path) in str(e.value) and "\n" not in str(e.value)
+    pq.write_table(pa.table({c: pa.array([], pa.null()) for c in COLUMNS}), path)
+    assert job.done(tmp_path)

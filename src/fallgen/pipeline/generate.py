@@ -32,7 +32,9 @@ from fallgen.audio.mix import Binaural
 from fallgen.audio.room import RirSettings
 from fallgen.config import SPLITS, BuildConfig
 from fallgen.dataset.manifest import finalize
+from fallgen.dataset.schema import COLUMNS
 from fallgen.dataset.writer import ShardWriter, row_of, shard_name
+from fallgen.errors import InputError
 from fallgen.physics.events import FallEvent, from_table
 from fallgen.physics.rehearse import rehearsal_dir
 from fallgen.pipeline.episode import EpisodeMaker, Skip
@@ -124,8 +126,19 @@ class ShardJob:
         return shard_name(self.split, self.index, self.count)
 
     def done(self, out: Path) -> bool:
-        """Made already: its Parquet file (written last, atomically) exists."""
-        return (out / "data" / f"{self.name}.parquet").exists()
+        """Made already: its Parquet file (written last, atomically) exists. One made by a
+        fallgen whose rows have other columns is an error (InputError), not a shard to keep:
+        resuming into it would mix two versions' episodes in one dataset."""
+        path = out / "data" / f"{self.name}.parquet"
+        if not path.exists():
+            return False
+        names = pq.read_schema(path).names
+        if names != list(COLUMNS):
+            other = sorted(set(COLUMNS) ^ set(names))
+            raise InputError(path, "columns", "made by another fallgen version (columns "
+                             f"differ: {', '.join(other[:5]) or 'order'}); build into a new "
+                             "--out or remove that dataset")
+        return True
 
 
 def shard_jobs(planned: list[PlannedEpisode], per_shard: int) -> list[ShardJob]:
