@@ -255,13 +255,6 @@ def run_trial(world: World, variant: RoomVariant, zone: Zone, trial: int,
         x, y, z, throw = start
     else:
         z = float(rng.uniform(lo, hi))
-    if throw != (0.0, 0.0):  # fast enough to reach the zone while falling onto it
-        t_fall = math.sqrt(2 * max(z - zone.volume.zmin - r, 1e-3) / GRAVITY)
-        low = zone.drop.zmax - zone.volume.zmin < 2 * r + 0.02  # and, under a low cover,
-        # on to slide under it (the zone's depth at a sliding friction of ~0.4)
-        k = float(rng.uniform(0.7, 1.4)) / t_fall if not low else \
-            (float(rng.uniform(0.4, 1.5)) / max(math.hypot(*throw), 1e-3))
-        throw = (throw[0] * k, throw[1] * k)
     linvel = (float(rng.normal(0, cfg.push_speed_mps)) + throw[0],
               float(rng.normal(0, cfg.push_speed_mps)) + throw[1], 0.0)
     angvel = tuple(float(a) for a in rng.normal(0, cfg.spin_radps, 3))
@@ -295,19 +288,26 @@ BESIDE_SPAN_M = 0.5
 BESIDE_TRIES = 12
 
 
+def _low_cover(zone: Zone, r: float) -> bool:
+    """Whether ``zone``'s cover is lower than an object of bounding radius ``r`` (under a
+    sofa): it is entered sliding, not flying."""
+    return zone.drop.zmax - zone.volume.zmin < 2 * r + 0.02
+
+
 def _beside(rng: np.random.Generator, variant: RoomVariant, zone: Zone, r: float,
             z_lo: float, z_hi: float) -> tuple[float, float, float, tuple[float, float]] | None:
     """A start beside ``zone``'s drop region, for a zone with no room above it for a long
-    enough fall: (x, y, z, the horizontal displacement to a point drawn in the region; the
-    caller divides it by the fall's time). The side is drawn uniformly around the region, the
+    enough fall: (x, y, z, the horizontal velocity of the throw). It is thrown to a point
+    drawn in the region, fast enough to reach it while falling onto it, or, under a low cover,
+    to the floor before the opening at 0.4-1.5 m/s, on to slide under (the zone's depth at a
+    sliding friction of ~0.4). The side is drawn uniformly around the region, the
     start ``r`` + 5-30 cm (60 under a low cover) outside its footprint at a height in
     [``z_lo``, ``z_hi``]; a side is taken when the start and the first 70 % of the throw's
     path (a parabola down to the zone's support) clear every furniture part by ``r`` / 2 (a
     shelf's side panels, a wall cabinet: only the open side of a cavity will do). None when
     no side of ``BESIDE_TRIES`` does."""
     parts = [p.box for _, p in variant.parts()]
-    # a cavity lower than the object (under a sofa) is entered sliding, not flying
-    low = zone.drop.zmax - zone.volume.zmin < 2 * r + 0.02
+    low = _low_cover(zone, r)
     c, s = math.cos(zone.drop.yaw), math.sin(zone.drop.yaw)
     hx, hy = zone.drop.half[0], zone.drop.half[1]
     lx_room, ly_room = variant.size_m[0], variant.size_m[1]
@@ -334,7 +334,13 @@ def _beside(rng: np.random.Generator, variant: RoomVariant, zone: Zone, r: float
         zs = z + (zone.volume.zmin + r - z) * u[:, 0] ** 2
         path = np.column_stack([x + (gx - x) * u[:, 0], y + (gy - y) * u[:, 0], zs])
         if not any(b.contains(path, 0.5 * r).any() for b in parts):
-            return x, y, z, (gx - x, gy - y)
+            dx, dy = gx - x, gy - y
+            if low:
+                k = float(rng.uniform(0.4, 1.5)) / max(math.hypot(dx, dy), 1e-3)
+            else:
+                t_fall = math.sqrt(2 * max(z - zone.volume.zmin - r, 1e-3) / GRAVITY)
+                k = float(rng.uniform(0.7, 1.4)) / t_fall
+            return x, y, z, (dx * k, dy * k)
     return None
 
 
