@@ -40,6 +40,14 @@ _MAX_CONTACTS = 60.0
 _MAX_PHASES = 41
 
 
+def ringing_gains(q0: np.ndarray, v0: np.ndarray, omega_d: np.ndarray, decay: np.ndarray
+                  ) -> np.ndarray:
+    """Complex gains G of modes ringing freely from displacements ``q0`` and velocities
+    ``v0``: q(t) = Im(G e^((-d + i w_d) t)) / w_d (:func:`fallgen.audio.impact.modal_sum`'s
+    form), so G = v0 + d q0 + i w_d q0."""
+    return (v0 + decay * q0) + 1j * omega_d * q0
+
+
 @dataclass(frozen=True)
 class CoupledImpact:
     """Each body's modal displacements and velocities when the bodies part (``displacement``,
@@ -55,11 +63,9 @@ class CoupledImpact:
     vibration_j: float
 
     def gains(self, body: int, omega_d: np.ndarray, decay: np.ndarray) -> np.ndarray:
-        """Complex gains G of one body's modes for free ringing from the parting:
-        q(t) = Im(G e^((-d + i w_d) t)) / w_d (:func:`fallgen.audio.impact.modal_sum`'s form:
-        G = v0 + d q0 + i w_d q0)."""
-        q, v = self.displacement[body], self.velocity[body]
-        return (v + decay * q) + 1j * omega_d * q
+        """Complex gains of one body's modes for free ringing from the parting
+        (:func:`ringing_gains`)."""
+        return ringing_gains(self.displacement[body], self.velocity[body], omega_d, decay)
 
     def scaled(self, factor: float) -> CoupledImpact:
         """The same parting with every modal amplitude times ``factor`` (energy factor^2)."""
@@ -92,7 +98,7 @@ def coupled_impact(mass_kg: float, speed_mps: float, contact_time_s: float,
     Om = np.maximum(np.sqrt(np.maximum(lam, 0.0)), 1e-9)
     uphi = u @ phi
     wq = np.maximum(omega, 1e-9)
-    tc = math.pi * math.sqrt(mass_kg / k)
+    tc = contact_time_s
     fastest = max(float(Om.max()), float(omega.max()) if len(omega) else 0.0)
     dt = min(tc / _PER_CONTACT, 2 * math.pi / fastest / _PER_PERIOD)
     t_end = _MAX_CONTACTS * tc

@@ -24,6 +24,7 @@ from functools import cached_property
 
 import numpy as np
 
+from fallgen.audio.coupling import ringing_gains
 from fallgen.audio.hertz import half_sine_spectrum
 from fallgen.audio.modes import ModalModel
 
@@ -247,11 +248,11 @@ def render(body: SoundingBody, hits: list[ModalHit], length_s: float,
     g = np.einsum("hc,hcn->hn", n_dir, phi) * J[:, None] \
         * half_sine_spectrum(w[None, :] * dur[:, None], 1.0)
     coupled = [k for k, h in enumerate(live) if h.modal_state is not None]
-    if coupled:  # ringing from the state the contact left (G = v0 + d q0 + i w_d q0)
+    if coupled:  # ringing from the state the contact left
         g = g.astype(complex)
         for k in coupled:
             q0, v0, _ = live[k].modal_state
-            g[k] = (v0[keep] + d * q0[keep]) + 1j * wd * q0[keep]
+            g[k] = ringing_gains(q0[keep], v0[keep], wd, d)
     T = 1.0 / sample_rate
     z = np.exp((-d + 1j * wd) * T)
     out += modal_sum(z, R / wd, idx, g, n_out)
