@@ -39,15 +39,24 @@ def a_weighting_db(f_hz: np.ndarray) -> np.ndarray:
         return 20 * np.log10(ra) + 2.0
 
 
+def _a_weighted_mean_square(spec: np.ndarray, n: int, sample_rate: int) -> float:
+    """The A-weighted mean square (Pa^2) of (R, n // 2 + 1) one-sided spectra of R signals of
+    ``n`` samples, the mean over the rows (Parseval: the bins but DC and Nyquist count
+    twice)."""
+    f = np.fft.rfftfreq(n, 1.0 / sample_rate)
+    twice = np.full(len(f), 2.0)
+    twice[0] = 1.0
+    if n % 2 == 0:
+        twice[-1] = 1.0
+    power = np.abs(spec) ** 2 * 10 ** (a_weighting_db(f) / 10) * twice
+    return float(np.sum(power)) / (len(spec) * n * n)
+
+
 def db_a(pressure_pa: np.ndarray, sample_rate: int) -> float:
     """A-weighted equivalent level (dB(A)) of a (..., T) pressure signal over its length, the
     mean power of its rows."""
     p = np.atleast_2d(np.asarray(pressure_pa, float))
-    spec = np.fft.rfft(p, axis=-1)
-    f = np.fft.rfftfreq(p.shape[-1], 1.0 / sample_rate)
-    w = 10 ** (a_weighting_db(f) / 20)
-    weighted = np.fft.irfft(spec * w, n=p.shape[-1], axis=-1)
-    ms = float(np.mean(weighted ** 2))
+    ms = _a_weighted_mean_square(np.fft.rfft(p, axis=-1), p.shape[-1], sample_rate)
     return 10 * math.log10(max(ms, 1e-30) / 4e-10)
 
 
@@ -70,12 +79,6 @@ def ambient_noise(n: int, sample_rate: int, level_db_a: float, rng: np.random.Ge
     left = x[0]
     right = coh * x[0] + np.sqrt(np.maximum(1 - coh ** 2, 0.0)) * x[1]
     spec = np.vstack([left, right]) * shape
-    # the A-weighted mean square from the spectrum (Parseval, one-sided bins counted twice)
-    w2 = 10 ** (a_weighting_db(f) / 10)
-    twice = np.full(m, 2.0)
-    twice[0] = 1.0
-    if n % 2 == 0:
-        twice[-1] = 1.0
-    ms = float(np.sum(np.abs(spec) ** 2 * w2 * twice)) / (2 * n * n)
+    ms = _a_weighted_mean_square(spec, n, sample_rate)
     scale = math.sqrt(4e-10 * 10 ** (level_db_a / 10) / max(ms, 1e-300))
     return np.fft.irfft(spec * scale, n=n, axis=-1)
