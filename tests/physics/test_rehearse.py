@@ -16,7 +16,8 @@ import pytest
 from fallgen.config import BuildConfig, RehearseConfig
 from fallgen.physics.drop import replay
 from fallgen.physics.settle import SettleCriteria
-from fallgen.physics.rehearse import read_events, rehearse, rehearse_variant
+from fallgen.errors import InputError
+from fallgen.physics.rehearse import fingerprint, read_events, rehearse, rehearse_variant
 
 ROOMS = ["kitchen_galley-l1-m1", "study_office-l2-m2"]
 
@@ -135,6 +136,19 @@ def test_same_bytes_whatever_workers_and_order(world, tmp_path):
     mtime = (a / f"{ROOMS[0]}.parquet").stat().st_mtime_ns
     rehearse(world, cfg, ROOMS, out=a, workers=1)
     assert (a / f"{ROOMS[0]}.parquet").stat().st_mtime_ns == mtime
+    # ... made under the same config only: another one is refused, naming the file
+    other = dataclasses.replace(cfg, rehearse=dataclasses.replace(cfg.rehearse, min_fall_m=0.4))
+    with pytest.raises(InputError, match=r"stats\.json: fingerprint: rehearsed under another"):
+        rehearse(world, other, ROOMS, out=a, workers=1)
+    with pytest.raises(InputError, match="fingerprint"):
+        rehearse(world, dataclasses.replace(cfg, root_seed=7), ROOMS, out=a, workers=1)
+    assert (a / f"{ROOMS[0]}.parquet").stat().st_mtime_ns == mtime
+    # the rooms picked are not part of it
+    rehearse(world, dataclasses.replace(cfg, rehearse=dataclasses.replace(
+        cfg.rehearse, rooms=ROOMS[0])), ROOMS[:1], out=a, workers=1)
+    rehearse(world, other, ROOMS, out=a, workers=1, force=True)  # --force redoes them
+    assert json.loads((a / f"{ROOMS[0]}.stats.json").read_text())["fingerprint"] == \
+        fingerprint(world, other)
 
 
 def test_spinning_fork_does_not_diverge(world):

@@ -2,13 +2,18 @@
 
 One Parquet file per variant (``<out>/rehearsal/<variant>.parquet``), written atomically with a
 sidecar of statistics (``.stats.json``); a rerun skips variants whose file exists unless
-``force``. The unit of work is a variant, so any number of worker processes gives identical
-files.
+``force``. The sidecar holds the rehearsal's fingerprint (:func:`fingerprint`: the code, the
+world's data files, MuJoCo's version, the root seed and the rehearsal config): a variant made
+under another one is an error naming the file, not a variant to keep. The unit of work is a
+variant, so any number of worker processes gives identical files.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import fnmatch
+import functools
+import hashlib
 import io
 import json
 import os
@@ -21,6 +26,7 @@ import pyarrow.parquet as pq
 
 from fallgen.atomic import write_bytes, write_text
 from fallgen.config import BuildConfig
+from fallgen.errors import InputError
 from fallgen.physics.drop import REASONS, run_trial
 from fallgen.physics.events import FallEvent, from_table, to_table
 from fallgen.pipeline.executor import ProcessUsage, parallel_map, process_usage, select_units
@@ -34,6 +40,8 @@ class RoomStats:
     reasons: Counter = field(default_factory=Counter)
     by_zone_kind: dict[str, Counter] = field(default_factory=dict)
     by_category: dict[str, Counter] = field(default_factory=dict)
+    #: what made it (:func:`fingerprint`)
+    fingerprint: str = ""
     #: the process that rehearsed it, when it was done in this run (not written to the sidecar)
     usage: ProcessUsage | None = field(default=None, compare=False)
 
@@ -46,12 +54,14 @@ class RoomStats:
 
     def as_dict(self) -> dict:
         return {"variant": self.variant, "trials": self.trials, "reasons": dict(self.reasons),
+                "fingerprint": self.fingerprint,
                 "by_zone_kind": {k: dict(v) for k, v in sorted(self.by_zone_kind.items())},
                 "by_category": {k: dict(v) for k, v in sorted(self.by_category.items())}}
 
     @staticmethod
     def from_dict(d: dict) -> RoomStats:
-        s = RoomStats(d["variant"], d["trials"], Counter(d["reasons"]))
+        s = RoomStats(d["variant"], d["trials"], Counter(d["reasons"]),
+                      fingerprint=d.get("fingerprint", ""))
         s.by_zone_kind = {k: Counter(v) for k, v in d["by_zone_kind"].items()}
         s.by_category = {k: Counter(v) for k, v in d["by_category"].items()}
         return s
@@ -62,7 +72,7 @@ def rehearse_variant(world: World, variant_id: str, cfg: BuildConfig
     """All zones of one variant: trials 0, 1, ... until ``events_per_zone`` are kept."""
     variant = world.variant(variant_id)
     r = cfg.rehearse
-    stats = RoomStats(variant_id)
+    stats = RoomStats(variant_id, fingerprint=fingerprint(world, cfg))
     events: list[FallEvent] = []
     for zone in variant.zones:
         if not fnmatch.fnmatchcase(zone.id, r.zones):
@@ -77,6 +87,31 @@ def rehearse_variant(world: World, variant_id: str, cfg: BuildConfig
                 if kept == r.events_per_zone:
                     break
     return events, stats
+
+
+def fingerprint(world: World, cfg: BuildConfig) -> str:
+    """What a variant's rehearsal depends on, hashed: the source of the physics and world
+    packages, the world's data files (rooms, materials, object categories), MuJoCo's version,
+    the root seed and the rehearsal config (all of it but ``rooms``, which picks variants)."""
+    import mujoco
+
+    return _fingerprint(str(world.root), mujoco.__version__, cfg.root_seed,
+                        json.dumps({k: v for k, v in dataclasses.asdict(cfg.rehearse).items()
+                                    if k != "rooms"}, sort_keys=True, default=str))
+
+
+@functools.cache
+def _fingerprint(root: str, mujoco_version: str, seed: int, rehearse: str) -> str:
+    h = hashlib.sha256(json.dumps([mujoco_version, seed, rehearse]).encode())
+    pkg = Path(__file__).parent.parent
+    code = sorted([*pkg.glob("physics/*.py"), *pkg.glob("world/**/*.py")])
+    data = sorted(p for d in ("rooms", "materials", "objects")
+                  for p in (Path(root) / d).rglob("*") if p.is_file())
+    for f in code:
+        h.update(str(f.relative_to(pkg)).encode() + f.read_bytes())
+    for f in data:
+        h.update(str(f.relative_to(root)).encode() + f.read_bytes())
+    return h.hexdigest()[:16]
 
 
 def rehearsal_dir(cfg: BuildConfig, out: Path | None = None) -> Path:
@@ -127,7 +162,16 @@ def rehearse(world: World, cfg: BuildConfig, variant_ids: Iterable[str], *, out:
     for vid in select_units(list(variant_ids), shard_index, num_shards):
         p = out / f"{vid}.parquet"
         if p.exists() and p.with_suffix(".stats.json").exists() and not force:
-            done.append(RoomStats.from_dict(json.loads(p.with_suffix(".stats.json").read_text())))
+            side = p.with_suffix(".stats.json")
+            try:
+                kept = RoomStats.from_dict(json.loads(side.read_text()))
+            except (ValueError, KeyError, TypeError) as e:
+                raise InputError(side, "<file>", f"not a rehearsal sidecar ({e})") from None
+            if kept.fingerprint != fingerprint(world, cfg):
+                raise InputError(side, "fingerprint", "rehearsed under another config, world "
+                                 "or fallgen version; build into a new --out, or `fallgen "
+                                 "rehearse --force` to rehearse it again")
+            done.append(kept)
             if progress:
                 progress(vid, None)
         else:
