@@ -25,7 +25,7 @@ from fallgen.nav.agent import AgentSpec, Pose
 from fallgen.nav.occupancy import geom_box_corners
 from fallgen.vision.gl import GLContext, SceneFrames
 from fallgen.vision.sight import DRAWN_GROUPS
-from fallgen.world.scene import Scene
+from fallgen.world.scene import WALL_OWNERS, Scene
 
 WIDTH = HEIGHT = 300
 FOV_DEG = 90.0
@@ -72,7 +72,7 @@ def world_category_labels(world) -> tuple[str, ...]:
 def _category(owner: str, scene: Scene, object_categories: dict[str, str]) -> str:
     if owner.startswith("obj:"):
         return object_categories.get(owner[4:], "object")
-    if owner.startswith("wall"):
+    if owner in WALL_OWNERS:  # not a wall cabinet ("wall_cab_n")
         return "wall"
     if owner in ("floor", "ceiling", "agent"):
         return owner

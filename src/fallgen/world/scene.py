@@ -37,6 +37,10 @@ CONTACT_SOLIMP = (0.0, 0.95, 0.001, 0.5, 2.0)
 VISUAL_GROUP, COLLISION_GROUP = 1, 3
 
 
+
+#: Geom owners of a room's walls (a furniture id may start with "wall" too: "wall_cab_n").
+WALL_OWNERS = ("wall_west", "wall_east", "wall_south", "wall_north")
+
 @dataclass(frozen=True)
 class PhysicsSettings:
     timestep_s: float = 0.002
