@@ -63,6 +63,7 @@ hrtf = ""
 audio_s = 1.0
 image_source_order = 3
 ambient_noise_db_a = 30.0
+min_heard_peak_db_spl = 0.0
 episodes_per_shard = 2
 """
 

@@ -41,6 +41,9 @@ class GenerateConfig:
     episodes_per_shard: int = 500
     #: the ambient noise floor at the ears, dB(A) (fallgen.audio.ambient); 0: none
     ambient_noise_db_a: float = DEFAULT_NOISE_DB_A
+    #: a fall heard more quietly than this at the agent (peak, dB SPL) starts no episode: the
+    #: episode takes its next event (skip reason "inaudible"); 0 keeps every fall
+    min_heard_peak_db_spl: float = 35.0
 
 
 @dataclass(frozen=True)
@@ -87,6 +90,7 @@ def _generate(f: Fields) -> GenerateConfig:
         image_source_order=f.int("image_source_order", lo=0, hi=30),
         episodes_per_shard=f.int("episodes_per_shard", lo=1, hi=100_000),
         ambient_noise_db_a=f.float("ambient_noise_db_a", lo=0.0, hi=80.0),
+        min_heard_peak_db_spl=f.float("min_heard_peak_db_spl", lo=0.0, hi=120.0),
     )
     if sum(g.episodes) == 0:
         raise e.error(SPLITS[0], "at least one episode is needed")

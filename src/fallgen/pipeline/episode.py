@@ -108,9 +108,10 @@ class EpisodeMaker:
     """Makes episodes of one world (keeps the modal models and the HRTF between episodes)."""
 
     def __init__(self, world: World, binaural: Binaural, spec: AgentSpec = AgentSpec(),
-                 rir: RirSettings = RirSettings(), noise_db_a: float = DEFAULT_NOISE_DB_A
-                 ) -> None:
+                 rir: RirSettings = RirSettings(), noise_db_a: float = DEFAULT_NOISE_DB_A,
+                 min_heard_peak_db_spl: float = 0.0) -> None:
         self.world, self.binaural, self.spec, self.rir = world, binaural, spec, rir
+        self.min_heard_peak_db_spl = min_heard_peak_db_spl
         self.noise_db_a = noise_db_a
         self.sounds = FallRenderer(world)
         self.labels = world_category_labels(world)  # one segmentation table for a dataset
@@ -186,6 +187,9 @@ class EpisodeMaker:
             head = Listener(np.array([spawn.x, spawn.y, spec.camera_height_m]), spawn.yaw_rad)
             clip = self.binaural.mix(room, sources, head, rng, self.rir, self.noise_db_a)
             lap("audio")
+            heard = (clip.fall_levels or clip.levels_db_spl())[0]
+            if heard < self.min_heard_peak_db_spl:  # a fall the agent cannot hear is no task
+                raise Skip("inaudible", f"{heard:.1f} dB SPL peak at the agent")
             view = camera.render(data, spawn)
             lap("render")
 

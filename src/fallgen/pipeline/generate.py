@@ -162,7 +162,8 @@ def _maker(world: World, cfg: BuildConfig) -> EpisodeMaker:
     hrtf = load_sofa(g.hrtf) if g.hrtf else spherical_head()
     return EpisodeMaker(world, Binaural(hrtf),
                         rir=RirSettings(g.image_source_order, 44100, g.audio_s),
-                        noise_db_a=g.ambient_noise_db_a)
+                        noise_db_a=g.ambient_noise_db_a,
+                        min_heard_peak_db_spl=g.min_heard_peak_db_spl)
 
 
 def make_shard(world: World, maker: EpisodeMaker, cfg: BuildConfig, job: ShardJob,
