@@ -9,7 +9,7 @@ export MUJOCO_GL ?= egl
 CONFIG ?= configs/full.toml
 WORKERS ?= $(shell nproc 2>/dev/null || echo 2)
 
-.PHONY: setup demo test test-fast bench bench-full assets rehearse generate dataset smoke clean lint
+.PHONY: setup demo test test-fast bench bench-full loudness assets rehearse generate dataset smoke clean lint
 
 setup: $(VENV)/.fallgen-installed
 $(VENV)/.fallgen-installed: pyproject.toml scripts/setup.sh
@@ -51,6 +51,11 @@ bench: setup
 	$(PY) bench/build_bench.py | tee build/bench-build.json
 	$(PY) bench/env_bench.py --dataset build/smoke | tee build/bench-env.json
 	$(PY) bench/report.py build
+
+## loudness: the dry peak and Leq at 1 m of reference drops onto a parquet and a tiled floor
+## (the README's calibration table), ~2 min.
+loudness: setup
+	$(PY) bench/loudness_table.py
 
 ## bench-full: the paper-size build itself, timed (wall per phase, CPU, each worker's peak
 ## memory, file fingerprint), validated, then its generation again with one worker (the

@@ -24,9 +24,9 @@ import time
 from pathlib import Path
 
 import numpy as np
-import trimesh
 
-from fallgen.audio.fall import PATCH_M, PATCH_THICKNESS_M
+from fallgen.audio.fall import PATCH_M
+from fallgen.audio.shells import plate_model
 from fallgen.audio.hertz import hertz_impact
 from fallgen.audio.impact import ModalHit, SoundingBody, render
 from fallgen.audio.modes import ModalSettings, modal_model
@@ -89,7 +89,7 @@ def main() -> None:
     settings = ModalSettings()
     t0 = time.perf_counter()
     bodies = []
-    panel = trimesh.creation.box((PATCH_M, PATCH_M, PATCH_THICKNESS_M))
+    slab_m = 0.15  # the floor: a patch of a 150 mm slab, as a bonded floor rings in a build
     for cat, var, mat, surf, speed in CASES:
         inst = lib.instance(cat, var, mat, 1.0)
         m = inst.material
@@ -99,8 +99,8 @@ def main() -> None:
                            m.youngs_modulus_pa, m.poisson_ratio, inst.mass_kg,
                            float(np.clip(0.25 * inst.extents_m.min(), 0.001, 0.05)))
         s = mats.object(surf)
-        pref = modal_model(panel.vertices, panel.faces, s.poisson_ratio, settings)
-        vol = PATCH_M ** 2 * PATCH_THICKNESS_M
+        pref = plate_model(PATCH_M, PATCH_M, slab_m, s.poisson_ratio, settings.n_modes)
+        vol = PATCH_M ** 2 * slab_m
         floor = SoundingBody(pref.scaled(s.youngs_modulus_pa, s.density_kg_m3, 1.0),
                              max(s.loss_factor, 0.05), s.youngs_modulus_pa, s.poisson_ratio,
                              s.density_kg_m3 * vol, math.inf)
@@ -126,7 +126,7 @@ def main() -> None:
             j = inst.mass_kg * speed * (1 + inst.material.restitution)
             p = render(obj, [ModalHit(0.0, point, j, h.duration_s)], 2.0,
                        volume_m3=inst.geometry.volume_m3)
-            p += render(floor, [ModalHit(0.0, np.array([0.13, 0.08, PATCH_THICKNESS_M / 2]), j,
+            p += render(floor, [ModalHit(0.0, np.array([0.13, 0.08, slab_m / 2]), j,
                                          h.duration_s, np.array([0.0, 0.0, -1.0]))], 2.0)
             times.append(time.perf_counter() - t)
             modes.append(int((obj.modes.omega < 0.45 * 44100 * 2 * math.pi).sum()

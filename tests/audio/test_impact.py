@@ -10,7 +10,8 @@ import pytest
 import trimesh
 
 from fallgen.audio.hertz import hertz_impact
-from fallgen.audio.impact import ModalHit, SoundingBody, radiation_factors, render
+from fallgen.audio.impact import (C_AIR, RHO_AIR, ModalHit, SoundingBody, radiated_energy_j,
+                                 radiation_factors, render, rigid_body_pressure)
 from fallgen.audio.modes import ModalSettings, modal_model
 
 FS = 44100
@@ -159,3 +160,57 @@ def test_radiation_moments_survive_scaling(bar_ref):
     r1, r2 = radiation_factors(m), radiation_factors(fresh)
     # equal, up to float32 rounding in modes that cancel to ~0 (torsion: no net motion)
     assert np.allclose(r1, r2, rtol=1e-4, atol=1e-5 * r2.max())
+
+
+def _sphere_click(a, mass, dv, tc, n=8820):
+    """Rigid-body noise of a sphere of radius ``a`` whose velocity changes by ``dv`` in a
+    half-sine force pulse of ``tc``."""
+    vol = 4 / 3 * math.pi * a ** 3
+    return rigid_body_pressure(vol, mass, [ModalHit(0.01, np.zeros(3), mass * dv, tc)], n, FS)
+
+
+def test_rigid_body_noise_is_the_compact_dipole_for_a_slow_pulse():
+    """ka << 1 over the pulse's spectrum: p = rho0 (1.5 V) / (4 pi c r) da/dt / sqrt(3), with
+    da/dt of the half-sine force: the same spectrum below 500 Hz and the same energy."""
+    a, m, dv, tc = 0.01, 0.05, 5.0, 2e-3  # corner 7.7 kHz, the pulse's spectrum below ~500 Hz
+    p = _sphere_click(a, m, dv, tc)
+    vol = 4 / 3 * math.pi * a ** 3
+    t = (np.arange(len(p)) - round(0.01 * FS)) / FS
+    ref = np.where((t >= 0) & (t <= tc), RHO_AIR * 1.5 * vol / (4 * math.pi * C_AIR)
+                   / math.sqrt(3) * math.pi ** 2 * dv / (2 * tc ** 2) * np.cos(math.pi * t / tc),
+                   0.0)
+    f = np.fft.rfftfreq(len(p), 1 / FS)
+    band = (f > 50) & (f < 500)  # below the pulse spectrum's first zero (750 Hz)
+    ratio = np.abs(np.fft.rfft(p))[band] / np.abs(np.fft.rfft(ref))[band]
+    assert np.all(np.abs(ratio - 1) < 0.05)
+    assert radiated_energy_j(p, FS) == pytest.approx(radiated_energy_j(ref, FS), rel=0.05)
+    assert abs(p.sum()) < 1e-3 * np.abs(p).sum()  # a jolt, no net pressure
+
+
+def test_rigid_body_noise_follows_the_velocity_of_a_large_sphere():
+    """ka >> 1 (a 0.2 m sphere stopped in 20 us): the exact rigid sphere's pressure starts at
+    rho0 c a dU / (r sqrt(3)) and decays as e^(-t/tau) (cos - sin)(t/tau), tau = a / c; it
+    radiates rho0 V dU^2 / 4, the kinetic energy of the sphere's added mass. The compact
+    dipole would give (tau / tc)^2 ~ 800 times more pressure."""
+    a, m, dv = 0.2, 3.0, 4.0
+    p = _sphere_click(a, m, dv, 2e-5)
+    limit = RHO_AIR * C_AIR * a * dv / math.sqrt(3)
+    assert np.abs(p).max() <= limit * 1.001
+    i0 = round(0.01 * FS) + 1  # the first sample holds half the step (bilinear): skip it
+    x = np.arange(1, len(p) - i0 + 1) / FS / (a / C_AIR)
+    ref = limit * np.exp(-x) * (np.cos(x) - np.sin(x))
+    assert np.linalg.norm(p[i0:] - ref) < 0.05 * np.linalg.norm(ref)
+    vol = 4 / 3 * math.pi * a ** 3
+    assert radiated_energy_j(p, FS) == pytest.approx(RHO_AIR * vol * dv ** 2 / 4, rel=0.06)
+
+
+def test_rigid_body_noise_energy_never_exceeds_the_instant_stop():
+    """Whatever the pulse, a sphere radiates at most what an instant change of velocity
+    would (its added mass's kinetic energy, rho0 V dU^2 / 4), and less the longer the
+    pulse."""
+    a, m, dv = 0.06, 1.0, 9.0
+    vol = 4 / 3 * math.pi * a ** 3
+    energies = [radiated_energy_j(_sphere_click(a, m, dv, tc), FS)
+                for tc in (1e-5, 5e-5, 2e-4, 1e-3, 5e-3)]
+    assert max(energies) <= RHO_AIR * vol * dv ** 2 / 4 * 1.02
+    assert all(e1 > e2 for e1, e2 in zip(energies, energies[1:]))

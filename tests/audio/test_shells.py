@@ -75,3 +75,29 @@ def test_thin_walled_library_objects_carry_their_shell(world):
             half = np.array([g.shell.size[0], g.shell.size[0], g.shell.size[2] / 2])
         assert np.all(c - half >= lo - 1e-6) and np.all(c + half <= hi + 1e-6), (cid, var)
     assert lib.geometry("bottle", "wine").shell is None
+
+
+def test_plate_patch_is_the_simply_supported_plate():
+    """A room surface's patch (:func:`fallgen.audio.shells.plate_model`): Kirchhoff's
+    frequencies of a simply supported plate, ascending, mass-normalised shapes on its +z face,
+    frequencies scaling with the thickness; a 150 mm concrete slab patch starts in the kHz,
+    22 mm floorboards in the low hundreds of Hz."""
+    from fallgen.audio.shells import plate_model
+
+    a, t, nu = 0.6, 0.022, 0.3
+    m = plate_model(a, a, t, nu, 12)
+    D = E_REF * t ** 3 / (12 * (1 - nu ** 2))
+    w11 = math.sqrt(D / (RHO_REF * t)) * 2 * (math.pi / a) ** 2
+    assert m.omega[0] == pytest.approx(w11, rel=1e-9)
+    assert m.omega[1] == pytest.approx(m.omega[2]) == pytest.approx(2.5 * w11)  # (1,2), (2,1)
+    assert np.all(np.diff(m.omega) >= 0)
+    assert np.all(m.area[:, 2] > 0) and np.allclose(m.points[:, 2], t / 2)
+    shapes = m.shapes[:, 2, :].astype(float)
+    mass = RHO_REF * t * m.area[:, 2]  # the plate's mass per node
+    np.testing.assert_allclose((mass[:, None] * shapes ** 2).sum(0), 1.0, rtol=0.01)
+    assert plate_model(a, a, 2 * t, nu, 12).omega[0] == pytest.approx(2 * w11)
+    # in materials: concrete (stone) 150 mm vs pine-like boards 22 mm
+    slab = plate_model(a, a, 0.15, 0.2, 4).scaled(4e10, 2400.0, 1.0)
+    boards = plate_model(a, a, 0.022, 0.3, 4).scaled(1e10, 600.0, 1.0)
+    assert 1000 < slab.omega[0] / (2 * math.pi) < 3000
+    assert 100 < boards.omega[0] / (2 * math.pi) < 400

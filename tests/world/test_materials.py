@@ -242,6 +242,29 @@ def test_impact_materials_sound_like_the_finish(lib):
     assert audio["linoleum"] == "plastic_hard"
 
 
+def test_wood_is_hit_across_the_grain(lib):
+    """An impact on a board's face meets the modulus across the grain (Wood Handbook: E_R / E_L
+    ~0.07-0.16); isotropic materials (and cork) meet their Young's modulus."""
+    for w in ("wood_soft", "wood_medium", "wood_hard"):
+        m = lib.object(w)
+        assert 0.07 <= m.contact_modulus_ratio <= 0.16
+        assert m.contact_modulus_pa == pytest.approx(m.contact_modulus_ratio * m.youngs_modulus_pa)
+    assert lib.object("wood_soft/cork").contact_modulus_ratio == 1.0
+    assert lib.object("metal").contact_modulus_pa == lib.object("metal").youngs_modulus_pa
+
+
+def test_what_rings_behind_a_finish(lib):
+    """A finish bonded to a slab rings as the slab; boards and boards on studs as themselves."""
+    s = lib.surfaces
+    for bonded in ("wood_parquet", "ceramic_tile", "linoleum", "carpet_thin", "cork_floor"):
+        assert s[bonded].structure_material == "stone", bonded
+        assert s[bonded].structure_thickness_m >= 0.1, bonded
+    assert s["wood_planks"].structure_material.startswith("wood_")
+    assert s["wood_planks"].structure_thickness_m < 0.05
+    assert s["gypsum_board"].structure_material == "stone/gypsum"
+    assert s["glass_window"].structure_thickness_m < 0.01
+
+
 # -- malformed files ----------------------------------------------------------------------------
 def _copy(tmp_path: Path) -> Path:
     for fname in ("objects.toml", "surfaces.toml"):
@@ -319,6 +342,8 @@ def test_copy_of_shipped_files_loads(tmp_path):
         ("metal.grades.aluminium", "resonant", "resonant = false",
          "metal.grades.aluminium.resonant"),
         ("metal.grades.brass", "description", None, "metal.grades.brass.description"),
+        ("wood_hard", "contact_modulus_ratio", "contact_modulus_ratio = 2.0",
+         "wood_hard.contact_modulus_ratio"),
     ],
 )
 def test_malformed_objects(tmp_path, table, key, line, field):
@@ -372,6 +397,11 @@ def test_missing_file(tmp_path, fname):
         ("glass_window", "absorbtion", "absorbtion = [0, 0, 0, 0, 0, 0, 0]",
          "glass_window.absorbtion"),
         ("brick_bare", "friction_sliding", None, "brick_bare.friction_sliding"),
+        ("wood_parquet", "structure_material", 'structure_material = "adamantium"',
+         "wood_parquet.structure_material"),
+        ("wood_parquet", "structure_material", None, "wood_parquet.structure_material"),
+        ("wood_planks", "structure_thickness_m", "structure_thickness_m = 2.0",
+         "wood_planks.structure_thickness_m"),
     ],
 )
 def test_malformed_surfaces(tmp_path, table, key, line, field):

@@ -2,8 +2,8 @@
 
 Jobs: each object variant (except thin shells, whose modes are closed-form) in each Poisson
 ratio its materials have; each furniture part (box or cylinder, from the compiled room scenes)
-in its material's; the floor, wall and ceiling panel of every surface finish. :class:`~fallgen.audio.fall.FallRenderer` asks for exactly these, so after
-:func:`precompute` a build solves nothing.
+in its material's (room surfaces are closed-form plates). :class:`~fallgen.audio.fall.FallRenderer`
+asks for exactly these, so after :func:`precompute` a build solves nothing.
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ def jobs(world: World, variants: Collection[str] | None = None,
     """Every modal model a build can need; or only those of the room ``variants`` (ids), of
     the ``objects`` ((category, variant, material) triples) and of the furniture ``parts``
     ((variant id, geom id) in the variant's scene without objects) when given."""
-    from fallgen.audio.fall import is_panel, panel_mesh, part_mesh
+    from fallgen.audio.fall import is_panel, part_mesh
     from fallgen.world.scene import build_scene
 
     out: dict[tuple, ModalJob] = {}
@@ -54,14 +54,11 @@ def jobs(world: World, variants: Collection[str] | None = None,
                 if objects is None or (cat.id, v.name, mname) in objects:
                     add(f"{cat.id}/{v.name}", g.vertices, g.faces,
                         mats.object(mname).poisson_ratio)
-    patch = panel_mesh()
+    # room surfaces are closed-form plates (audio.shells.plate_model): nothing to solve
     for room in world.rooms.values():
         for variant in room.variants:
             if variants is not None and variant.id not in variants:
                 continue
-            for face, s in variant.surfaces.items():
-                add(f"panel/{s.impact_material}", patch.vertices, patch.faces,
-                    mats.object(s.impact_material).poisson_ratio)
             scene = build_scene(variant, mats, [])
             m = scene.model
             for gid in range(m.ngeom):

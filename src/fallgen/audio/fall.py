@@ -9,20 +9,30 @@ For each contact event of a :class:`~fallgen.physics.events.FallEvent`:
   (:mod:`fallgen.audio.coupling`), and the modes ring from the state it leaves them in: energy
   is conserved, and the modes never take more than the (1 - e^2) share of the impact's
   kinetic energy that the pair's restitution e says it loses (a prescribed rigid-body impulse
-  gave a thin steel panel more energy than the whole fall had). The impulse times (1 + e)
-  over the rigid Hertz time still makes the rigid-body noise;
+  gave a thin steel panel more energy than the whole fall had). The impulse times (1 + e),
+  spread over the time the bodies touch (at least the rigid Hertz time), still makes the
+  rigid-body noise;
 - a ``scrape`` or ``roll`` sample (10 ms of sustained contact) becomes a train of small random
   impulses, one per roughness wavelength travelled (``roughness_m``), each lasting the time to
   cross it, with an RMS of ``roughness_force_ratio`` (scrapes; a third of it for rolls) times
   the sample's normal force over the sample: the surface texture excites both bodies.
 
 Bodies: the object's modal model (its mesh, material, scale); a furniture part's from its box or
-cylinder; a floor or wall as a free ``PATCH_M`` square panel of ``PATCH_THICKNESS_M`` in the
-surface's impact material (a floor is not a free plate: its loss factor is raised to at least
-``MOUNTED_LOSS_FACTOR`` for the structure it is fixed to). Objects also radiate their rigid-body
-acceleration noise (a hit jerks them as a whole); furniture parts and room surfaces are held by
-the rest of their structure and only ring (a light basket bottom jerked as a free body made
-137 dB at 1 m). Output: float64 pressure at 1 m in pascals, no normalisation.
+cylinder; a floor, wall or ceiling as what rings behind its finish (the surface's
+``structure_material`` and ``structure_thickness_m``: the concrete slab under a parquet or
+tiles, 22 mm boards on joists, a gypsum board on studs): a ``PATCH_M`` square plate of it,
+simply supported at its edges, takes the energy of the impact in the coupled contact, and the
+surface radiates as an infinite plate of that mass per area, stiffness and loss factor
+driven by the contact force, its coincidence included
+(:func:`~fallgen.audio.impact.plate_pressure`); the finish (``impact_material``) sets the
+contact's stiffness and restitution. Two earlier stand-ins were wrong both ways: a free 2 cm
+panel of the finish radiating as a compact body radiated nothing (a free plate's modes have no
+net volume displacement); the patch's modes radiating from its face (Rayleigh, baffled) put up
+to 22 % of a heavy glass's fall into sound on a board floor (a bounded patch's fundamental
+radiates like a piston; a continuous floor's bays cancel). Objects also radiate their rigid-body
+acceleration noise (a hit jerks them as a whole); furniture parts are held by the rest of
+their structure and only ring (a light basket bottom jerked as a free body made 137 dB at
+1 m). Output: float64 pressure at 1 m in pascals, no normalisation.
 """
 
 from __future__ import annotations
@@ -38,19 +48,19 @@ import trimesh
 
 from fallgen.audio.coupling import coupled_impact
 from fallgen.audio.hertz import hertz_impact
-from fallgen.audio.impact import ModalHit, SoundingBody, render
+from fallgen.audio.impact import C_AIR, ModalHit, SoundingBody, plate_pressure, render
 from fallgen.audio.mix import DrySource
-from fallgen.audio.modes import ModalModel, ModalSettings, modal_model
+from fallgen.audio.modes import ModalModel, ModalSettings, modal_model, round_nu
+from fallgen.audio.shells import plate_model
 from fallgen.physics.contacts import ContactEvent
 from fallgen.physics.events import GRAVITY, FallEvent
 from fallgen.world.library import World
-from fallgen.world.materials import ObjectMaterial
+from fallgen.world.materials import ObjectMaterial, SurfaceMaterial
 from fallgen.world.objects import ObjectInstance
-from fallgen.world.scene import Scene, build_scene
+from fallgen.world.scene import WALL_OWNERS, Scene, build_scene
 from fallgen.world.shell import ThinShell
 
 PATCH_M = 0.6
-PATCH_THICKNESS_M = 0.02
 MOUNTED_LOSS_FACTOR = 0.05
 #: Where a floor or wall patch is struck, as a fraction of its side from the centre (an
 #: off-centre point excites odd and even modes alike).
@@ -74,7 +84,9 @@ class _Body:
     frame_pos: np.ndarray  # world position of the body frame the modes live in
     frame_mat: np.ndarray  # (3, 3) world rotation of that frame
     material: ObjectMaterial
-    patch: bool = False  # a floor/wall/ceiling panel standing in for a large surface
+    patch: bool = False  # a floor/wall/ceiling plate standing in for a large surface
+    mass_per_area: float = 0.0  # a patch's structure, kg/m^2
+    coincidence_hz: float | None = None  # ... and its coincidence frequency
     #: a free body (an object): a hit jerks it as a whole, which radiates (acceleration
     #: noise); a furniture part or a room surface is held by the rest and only rings
     free: bool = True
@@ -85,6 +97,11 @@ class _Body:
         """This body's pressure at 1 m from its hits (those of one source ``group``)."""
         hits = self.hits if group is None else \
             [h for h, g in zip(self.hits, self.group) if g == group]
+        if self.patch:  # a room surface: the plate's forced sound where it is hit
+            return plate_pressure(self.mass_per_area, hits,
+                                  int(round(s.length_s * s.sample_rate)), s.sample_rate,
+                                  coincidence_hz=self.coincidence_hz,
+                                  loss_factor=self.sounding.loss_factor)
         return render(self.sounding, hits, s.length_s, s.sample_rate,
                       volume_m3=self.volume_m3 if self.free else None)
 
@@ -92,14 +109,15 @@ class _Body:
         return self.frame_mat.T @ (np.asarray(p_world, float) - self.frame_pos)
 
 
+#: The geom owners of a room's surfaces (a furniture id may start with "wall" too: a wall
+#: cabinet, "wall_cab_n")
+PANELS = frozenset(("floor", "ceiling", *WALL_OWNERS))
+
+
 def is_panel(owner: str) -> bool:
-    """Whether a geom owner is a room surface (rendered as a panel, not as its own slab)."""
-    return owner in ("floor", "ceiling") or owner.startswith("wall")
-
-
-def panel_mesh() -> trimesh.Trimesh:
-    """The free panel that stands in for a floor, wall or ceiling."""
-    return trimesh.creation.box((PATCH_M, PATCH_M, PATCH_THICKNESS_M))
+    """Whether a geom owner is a room surface (rendered as a plate patch, not as its own
+    solid)."""
+    return owner in PANELS
 
 
 def part_mesh(gtype: int, size: np.ndarray) -> trimesh.Trimesh:
@@ -127,7 +145,7 @@ def _quat_mat(quat) -> np.ndarray:
 def _sounding(ref: ModalModel, mat: ObjectMaterial, scale: float, mass: float, radius: float,
               loss_floor: float = 0.0) -> SoundingBody:
     return SoundingBody(ref.scaled(mat.youngs_modulus_pa, mat.density_kg_m3, scale),
-                        max(mat.loss_factor, loss_floor), mat.youngs_modulus_pa,
+                        max(mat.loss_factor, loss_floor), mat.contact_modulus_pa,
                         mat.poisson_ratio, mass, radius)
 
 
@@ -157,6 +175,7 @@ class FallRenderer:
         self._model_bytes = 0
         self._moments: dict[tuple, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         self._rooms: dict[str, tuple[mujoco.MjModel, mujoco.MjData]] = {}
+        self._plates: dict[tuple, ModalModel] = {}
 
     def _room(self, variant_id: str) -> tuple[mujoco.MjModel, mujoco.MjData]:
         """The room alone, compiled once per variant: the static geoms every scene of the
@@ -203,21 +222,47 @@ class FallRenderer:
         return _Body(body, vol, np.asarray(pos, float), np.asarray(mat33, float), inst.material)
 
     def _static_body(self, m: mujoco.MjModel, d: mujoco.MjData, gid: int, material: str,
-                     owner: str) -> _Body:
+                     owner: str, surface: SurfaceMaterial | None = None) -> _Body:
+        """A furniture part (its geom's solid in its ``material``), or for a room surface
+        (``surface``) a ``PATCH_M`` square patch of what rings behind its finish: the finish
+        (``material``) gives the contact its stiffness and restitution."""
         mat = self.world.materials.object(material)
-        nu = mat.poisson_ratio
         pos, rot = d.geom_xpos[gid].copy(), d.geom_xmat[gid].reshape(3, 3).copy()
-        if is_panel(owner):
-            key, mesh = ("panel", nu), panel_mesh()
-            vol = PATCH_M * PATCH_M * PATCH_THICKNESS_M
-        else:
-            gtype, size = int(m.geom_type[gid]), m.geom_size[gid].copy()
-            key, mesh = ("part", gtype, *map(float, size), nu), part_mesh(gtype, size)
-            vol = math.pi * size[0] ** 2 * 2 * size[1] \
-                if gtype == int(mujoco.mjtGeom.mjGEOM_CYLINDER) else float(np.prod(2 * size[:3]))
+        if surface is not None:
+            return self._surface_body(mat, surface, pos, rot)
+        nu = mat.poisson_ratio
+        gtype, size = int(m.geom_type[gid]), m.geom_size[gid].copy()
+        key, mesh = ("part", gtype, *map(float, size), nu), part_mesh(gtype, size)
+        vol = math.pi * size[0] ** 2 * 2 * size[1] \
+            if gtype == int(mujoco.mjtGeom.mjGEOM_CYLINDER) else float(np.prod(2 * size[:3]))
         ref = self._ref(key, lambda: (mesh.vertices, mesh.faces, nu))
         body = _sounding(ref, mat, 1.0, mat.density_kg_m3 * vol, math.inf, MOUNTED_LOSS_FACTOR)
-        return _Body(body, vol, pos, rot, mat, patch=is_panel(owner), free=False)
+        return _Body(body, vol, pos, rot, mat, free=False)
+
+    def _surface_body(self, finish: ObjectMaterial, surface: SurfaceMaterial, pos, rot
+                      ) -> _Body:
+        """The patch of a floor, wall or ceiling where it is hit: a simply supported plate of
+        the surface's structure (the slab under a parquet, boards on joists) takes the energy
+        an impact gives the surface (its modes in the coupled contact), hit through the
+        finish; what the surface radiates is the infinite plate's forced sound
+        (:func:`~fallgen.audio.impact.plate_pressure`)."""
+        struct = self.world.materials.object(surface.structure_material)
+        t = surface.structure_thickness_m
+        key = ("plate", PATCH_M, t, round_nu(struct.poisson_ratio))
+        ref = self._plates.get(key)
+        if ref is None:  # closed form, ~1 MB, a handful per build: kept
+            ref = self._plates[key] = plate_model(PATCH_M, PATCH_M, t, struct.poisson_ratio,
+                                                  self.s.modal.n_modes)
+        vol = PATCH_M * PATCH_M * t
+        body = SoundingBody(ref.scaled(struct.youngs_modulus_pa, struct.density_kg_m3, 1.0),
+                            max(struct.loss_factor, MOUNTED_LOSS_FACTOR),
+                            finish.contact_modulus_pa, finish.poisson_ratio,
+                            struct.density_kg_m3 * vol, math.inf)
+        m2 = struct.density_kg_m3 * t
+        bending = struct.youngs_modulus_pa * t ** 3 / (12 * (1 - struct.poisson_ratio ** 2))
+        fc = C_AIR ** 2 / (2 * math.pi) * math.sqrt(m2 / bending)
+        return _Body(body, vol, np.asarray(pos, float), np.asarray(rot, float), finish,
+                     patch=True, free=False, mass_per_area=m2, coincidence_hz=fc)
 
     def energy_lost_j(self, event: FallEvent) -> float:
         """The mechanical energy the fall loses, all of it in its contacts: the drop of the
@@ -303,7 +348,13 @@ class FallRenderer:
                         raise ValueError(f"event {event.event_id}: contact with geom "
                                          f"{c.geom_other} ({c.other}) outside the room's "
                                          f"{m.ngeom} geoms: pass the scene that recorded it")
-                    other = self._static_body(m, d, c.geom_other, c.material_other, c.other)
+                    surface = None
+                    if is_panel(c.other):
+                        face = c.other if c.other in ("floor", "ceiling") else \
+                            c.other.split("_", 1)[1]
+                        surface = world.variant(event.room_variant).surfaces[face]
+                    other = self._static_body(m, d, c.geom_other, c.material_other, c.other,
+                                              surface)
                 others[c.geom_other] = other
                 names[c.geom_other] = c.other if is_panel(c.other) or \
                     c.other.startswith("obj:") else f"{c.other}#{c.geom_other}"
@@ -326,7 +377,7 @@ class FallRenderer:
         p_other = other.local(c.point_world)
         if other.patch:
             p_other = np.array([PATCH_HIT[0] * PATCH_M, PATCH_HIT[1] * PATCH_M,
-                                PATCH_THICKNESS_M / 2])
+                                float(other.sounding.modes.points[0, 2])])  # its face
         n_other = other.frame_mat.T @ np.asarray(c.normal, float)  # force on the other: -n
         if c.kind == "impact":
             e = min(target.material.restitution, other.material.restitution)
@@ -347,10 +398,13 @@ class FallRenderer:
             cap = (1.0 - e * e) * imp.incoming_j
             if imp.vibration_j > cap:
                 imp = imp.scaled(math.sqrt(cap / imp.vibration_j))
-            target.hits.append(ModalHit(c.time_s, p_target, j, h.duration_s, None,
+            # the force lasts as long as the bodies touch: longer than the rigid Hertz time
+            # where a wall yields (the rigid-body noise's pulse)
+            t_force = max(h.duration_s, imp.duration_s)
+            target.hits.append(ModalHit(c.time_s, p_target, j, t_force, None,
                                         (imp.displacement[0], imp.velocity[0],
                                          imp.duration_s)))
-            other.hits.append(ModalHit(c.time_s, p_other, j, h.duration_s, -n_other,
+            other.hits.append(ModalHit(c.time_s, p_other, j, t_force, -n_other,
                                        (imp.displacement[1], imp.velocity[1],
                                         imp.duration_s)))
             return

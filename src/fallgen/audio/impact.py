@@ -8,8 +8,12 @@ radiates p_i(t) = R_i q_i(t), with R_i the pressure at 1 m per unit modal displa
 smaller of two classical estimates from the mode's surface motion (normal displacement times
 area at the surface nodes):
 
-- compact source (ka << 1): monopole + dipole, p = rho0 w^2 / (4 pi r) sqrt(Q^2 + k^2 |D|^2 / 3),
-  Q = sum(a . phi) the net volume displacement, D = sum((a . phi)(x - c)) its first moment;
+- compact source (ka << 1): monopole + dipole,
+  p = rho0 w^2 / (4 pi r) sqrt(Q^2 + k^2 |DIPOLE_FACTOR D|^2 / 3), Q = sum(a . phi) the net
+  volume displacement, D = sum((a . phi)(x - c)) its first moment; the fluid's reaction on
+  the moving surface (its added mass) adds half of D for a sphere: the dipole is 1.5 D, exact
+  for the oscillating rigid sphere (Morse & Ingard 1968, 7.2), the sphere's factor used for
+  every body;
 - large source: every surface element radiates with efficiency 1,
   p = rho0 c w sqrt(sum(|a| (n . phi)^2) / (4 pi)) / r.
 
@@ -18,6 +22,7 @@ No normalisation anywhere: a faster or heavier impact is louder in absolute term
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from functools import cached_property
@@ -55,7 +60,6 @@ class SoundingBody:
     poisson_ratio: float
     mass_kg: float
     contact_radius_m: float
-
     @cached_property
     def _radiation(self) -> np.ndarray:
         return radiation_factors(self.modes)
@@ -66,11 +70,19 @@ class SoundingBody:
         return self._radiation
 
 
+#: The dipole strength of a compact body over the first moment of its volume displacement:
+#: 1.5 for a sphere (the volume it moves plus half of it, its added mass).
+DIPOLE_FACTOR = 1.5
+
+
 def radiation_factors(m: ModalModel, r: float = REFERENCE_DISTANCE_M) -> np.ndarray:
+    """R_i of each mode: the smaller of the compact estimate and efficiency 1 (tested
+    against the exact spheres and Wallace's baffled plate in tests/audio/test_radiation.py)."""
     Q, D, A = m.surface_moments()
     w = m.omega
     k = w / C_AIR
-    p_low = RHO_AIR * w ** 2 / (4 * math.pi * r) * np.sqrt(Q ** 2 + k ** 2 * (D ** 2).sum(1) / 3)
+    p_low = RHO_AIR * w ** 2 / (4 * math.pi * r) \
+        * np.sqrt(Q ** 2 + k ** 2 * DIPOLE_FACTOR ** 2 * (D ** 2).sum(1) / 3)
     p_high = RHO_AIR * C_AIR * w * np.sqrt(A / (4 * math.pi)) / r
     return np.minimum(p_low, p_high)
 
@@ -94,33 +106,120 @@ class ModalHit:
 
 def rigid_body_pressure(volume_m3: float, mass_kg: float, hits: list[ModalHit], n_out: int,
                         sample_rate: int, r: float = REFERENCE_DISTANCE_M) -> np.ndarray:
-    """"Acceleration noise": a body jerked by a contact force radiates as a dipole,
-    p(t) = rho0 (1.5 V) / (4 pi c r) da/dt / sqrt(3) (a sphere with its added mass, RMS over
-    directions like the modal part), with
-    a(t) = F(t) / m and F a half-sine pulse of the hit's impulse and duration. This is most of
-    the sound of a non-resonant body (a cushion, a foam ball) and the click of a hard one."""
-    out = np.zeros(n_out)
-    k = RHO_AIR * 1.5 * volume_m3 / (4 * math.pi * C_AIR * r) / mass_kg / math.sqrt(3)
-    hits = [h for h in hits if h.impulse_ns > 0 and int(round(h.time_s * sample_rate)) < n_out]
-    if not hits:
-        return out
-    tc = np.maximum([h.duration_s for h in hits], 1.0 / sample_rate)  # (H,)
-    i0 = np.array([int(round(h.time_s * sample_rate)) for h in hits])
-    J = np.array([h.impulse_ns for h in hits])
-    n = np.maximum(2, np.ceil(tc * sample_rate).astype(int) + 1)  # samples of each pulse
-    hit = np.repeat(np.arange(len(hits)), n)  # every pulse sample, hit by hit
-    j = np.arange(len(hit)) - np.repeat(np.cumsum(n) - n, n)  # sample within its pulse
-    t = j / sample_rate
-    tch = tc[hit]
-    # dF/dt of F = (pi J / (2 tc)) sin(pi t / tc), band-limited by sampling at the pulse
-    dF = np.where(t <= tch, (math.pi * J[hit] / (2 * tch)) * (math.pi / tch)
-                  * np.cos(math.pi * t / tch), 0.0)
-    # shorter than the sample grid: keep the net zero, scale down
-    dF *= np.where(tch * sample_rate < 4, tch * sample_rate / 4, 1.0)
-    at = i0[hit] + j
-    ok = at < n_out
-    np.add.at(out, at[ok], k * dF[ok])
+    """"Acceleration noise": a body jerked by a contact force F(t) radiates as the rigid
+    sphere of its volume (radius a = (3 V / 4 pi)^(1/3)) oscillating with its velocity U,
+    exactly (Morse & Ingard 1968, section 7.2; RMS over directions like the modal part):
+
+        P(s) = rho0 a^3 / (2 c r sqrt(3)) * s^2 U(s) * 2 / (tau^2 s^2 + 2 tau s + 2),
+
+    tau = a / c, U = F / (m s), F a half-sine pulse of the hit's impulse and duration. Below
+    ka ~ 1 this is the compact dipole, p = rho0 (1.5 V) / (4 pi c r) da/dt / sqrt(3) (the
+    sphere with its added mass); above, the pressure follows the surface velocity,
+    p -> rho0 c a U / (r sqrt(3)), instead of growing with frequency as the dipole's would (a
+    1 kg ceramic jug jolted in a 0.1 ms Hertz contact made 145 dB at 1 m as a dipole). This is
+    most of the sound of a non-resonant body (a cushion, a foam ball) and the click of a hard
+    one. The force is sampled as the impulse each sample interval receives; the filter is the
+    bilinear transform of P / F, prewarped at its corner omega_0 = sqrt(2) / tau."""
+    from scipy.signal import bilinear, lfilter
+
+    force = force_signal(hits, n_out, sample_rate)
+    if not force.any():
+        return force
+    fs = float(sample_rate)
+    a = (3.0 * volume_m3 / (4.0 * math.pi)) ** (1.0 / 3.0)
+    tau = a / C_AIR
+    gain = RHO_AIR * a ** 3 / (2.0 * C_AIR * r * math.sqrt(3.0)) / mass_kg
+    w0 = math.sqrt(2.0) / tau
+    # prewarp: the digital corner where the analogue one is (when below Nyquist)
+    warp = w0 / (2 * fs * math.tan(w0 / (2 * fs))) if w0 < 0.9 * math.pi * fs else 1.0
+    tau_w = tau * warp
+    # P / F = gain * 2 s / (tau^2 s^2 + 2 tau s + 2)
+    bz, az = bilinear([gain * 2.0, 0.0], [tau_w ** 2, 2.0 * tau_w, 2.0], fs)
+    return lfilter(bz, az, force)
+
+
+def force_signal(hits: list[ModalHit], n_out: int, sample_rate: int) -> np.ndarray:
+    """The hits' half-sine force pulses (N), each sample the mean force over its interval (the
+    impulse it receives times the rate: every pulse's impulse exactly, however short)."""
+    fs = float(sample_rate)
+    force = np.zeros(n_out + 1)
+    for h in hits:
+        i0 = int(round(h.time_s * fs))
+        if h.impulse_ns <= 0 or i0 >= n_out:
+            continue
+        tc = max(h.duration_s, 1e-9)
+        edges = np.arange(int(math.ceil(tc * fs)) + 1) / fs  # sample edges from the start
+        cum = 0.5 * h.impulse_ns * (1.0 - np.cos(math.pi * np.minimum(edges, tc) / tc))
+        bins = np.diff(np.append(cum, h.impulse_ns))  # impulse per sample interval
+        stop = min(i0 + len(bins), n_out)
+        force[i0:stop] += bins[:stop - i0] * fs
+    return force[:n_out]
+
+
+def plate_pressure(mass_per_area_kg_m2: float, hits: list[ModalHit], n_out: int,
+                   sample_rate: int, r: float = REFERENCE_DISTANCE_M,
+                   coincidence_hz: float | None = None, loss_factor: float = 0.05
+                   ) -> np.ndarray:
+    """What a floor, wall or ceiling radiates where it is hit: an infinite thin plate of
+    ``mass_per_area`` m'' and bending stiffness B, driven by the hits' force F, radiates into
+    the room (Rayleigh's integral of its response F / (B (1 + i eta) kappa^4 - m'' w^2) at
+    kappa = k sin(theta); Cremer, Heckl & Petersson, Structure-Borne Sound, 3rd ed. 2005, ch. 7)
+
+        |p(theta, w)| = rho0 |F(w)| / (2 pi m'' r) / |1 - (f / f_c)^2 sin^4(theta) (1 + i eta)|,
+
+    f_c = ``coincidence_hz``: below it the plate's near field, rho0 F / (2 pi m'' r) in every
+    direction; around and above it its free bending waves radiate too (up to ~+13 dB near
+    f_c for eta = 0.05), and far above it the pressure falls as f_c / f. The directions'
+    mean square (:func:`coincidence_gain`) is applied as a minimum-phase filter (causal);
+    ``coincidence_hz`` None: the near field alone. The room's image of the surface doubles a
+    source on it, so the dry signal is half of that: the free-field monopole
+    rho0 F / (4 pi m'' r) (times the gain) whose image makes the plate's pressure in the room.
+    The energy a hit leaves in the plate travels away into the rest of the surface (its slow
+    ringing, the whole floor's, is not rendered). A real surface is supported: below its
+    lowest modes (a room's floor or wall, tens of Hz) it does not move as a whole, so the
+    infinite plate's net push is high-passed at ``SURFACE_LOWEST_HZ`` (second order,
+    causal)."""
+    from scipy.signal import butter, fftconvolve, sosfilt
+
+    k = RHO_AIR / (4 * math.pi * mass_per_area_kg_m2 * r)
+    force = force_signal(hits, n_out, sample_rate)
+    if not force.any():
+        return force
+    sos = butter(2, SURFACE_LOWEST_HZ, "highpass", fs=sample_rate, output="sos")
+    out = k * sosfilt(sos, force)
+    if coincidence_hz is not None:
+        fir = coincidence_filter(float(coincidence_hz), float(loss_factor), int(sample_rate))
+        i0 = int(np.flatnonzero(force)[0])  # causal: nothing before the first hit, exactly
+        out[i0:] = fftconvolve(out[i0:], fir)[:n_out - i0]
     return out
+
+
+def coincidence_gain(f: np.ndarray, coincidence_hz: float, loss_factor: float,
+                     n_angles: int = 4000) -> np.ndarray:
+    """Mean over the half space of |1 - (f / f_c)^2 sin^4(theta) (1 + i eta)|^-2: the point-
+    driven infinite plate's radiated power over its near field's (1 below coincidence)."""
+    th = (np.arange(n_angles) + 0.5) / n_angles * math.pi / 2
+    a = (np.asarray(f, float)[:, None] / coincidence_hz) ** 2
+    den = np.abs(1 - a * np.sin(th)[None, :] ** 4 * (1 + 1j * loss_factor)) ** 2
+    return (np.sin(th)[None, :] / den).sum(1) * (math.pi / 2 / n_angles)
+
+
+@functools.lru_cache(maxsize=64)
+def coincidence_filter(coincidence_hz: float, loss_factor: float, sample_rate: int,
+                       n_fft: int = 4096) -> np.ndarray:
+    """A causal (minimum-phase) FIR whose gain is sqrt(:func:`coincidence_gain`)."""
+    from scipy.signal import minimum_phase
+
+    f = np.fft.rfftfreq(n_fft, 1.0 / sample_rate)
+    g2 = coincidence_gain(f, coincidence_hz, loss_factor)
+    # a linear-phase filter of gain g2; its homomorphic minimum-phase version has gain ~sqrt
+    lin = np.roll(np.fft.irfft(g2, n_fft), n_fft // 2) * np.hanning(n_fft)
+    return minimum_phase(lin, method="homomorphic", n_fft=4 * n_fft)
+
+
+#: Below this a room surface does not radiate (its lowest modes: a floor's or wall's span of a
+#: few metres).
+SURFACE_LOWEST_HZ = 30.0
 
 
 #: Samples per block of the modal synthesis.

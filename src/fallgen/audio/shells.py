@@ -24,10 +24,14 @@ rescale and synthesise the same way.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from fallgen.world.shell import ThinShell
+
+if TYPE_CHECKING:
+    from fallgen.audio.modes import ModalModel
 
 #: Surface nodes of a shell model (about; at least 8 along any side).
 TARGET_NODES = 4000
@@ -149,3 +153,34 @@ def shell_modes(shell: ThinShell, nu: float, E: float, rho: float, n_modes: int
     shell, lowest ``n_modes`` modes, ascending."""
     fn = _cylinder if shell.kind == "cylinder" else _box
     return fn(shell, nu, E, rho, n_modes)
+
+
+def plate_model(a: float, b: float, thickness: float, nu: float, n_modes: int,
+                nodes: int = 48) -> ModalModel:
+    """Reference modal model (E_REF, RHO_REF) of an ``a`` x ``b`` plate simply supported
+    along its edges (a patch of floor between joists, of a wall between studs, of a slab),
+    ``thickness`` thick, centred at the origin: the lowest ``n_modes`` of
+    w = sin(m pi x / a) sin(n pi y / b), omega = sqrt(D / (rho h)) ((m pi / a)^2 + (n pi / b)^2),
+    mass-normalised, on a ``nodes`` x ``nodes`` grid of its +z face (the face into the
+    room)."""
+    from fallgen.audio.modes import E_REF, RHO_REF, ModalModel, round_nu
+
+    nu = round_nu(nu)
+    h = thickness
+    c = math.sqrt(E_REF * h ** 3 / (12 * (1 - nu ** 2)) / (RHO_REF * h))
+    cands = sorted((c * ((m * math.pi / a) ** 2 + (n * math.pi / b) ** 2), m, n)
+                   for m in range(1, n_modes + 1) for n in range(1, n_modes + 1))[:n_modes]
+    du, dv = a / nodes, b / nodes
+    uu, vv = np.meshgrid((np.arange(nodes) + 0.5) * du, (np.arange(nodes) + 0.5) * dv,
+                         indexing="ij")
+    points = np.stack([uu.ravel() - a / 2, vv.ravel() - b / 2,
+                       np.full(uu.size, h / 2)], 1)
+    area = np.zeros_like(points)
+    area[:, 2] = du * dv
+    amp = 2.0 / math.sqrt(RHO_REF * h * a * b)
+    shapes = np.zeros((len(points), 3, len(cands)), np.float32)
+    for i, (_, m, n) in enumerate(cands):
+        shapes[:, 2, i] = (amp * np.sin(m * math.pi * uu / a)
+                           * np.sin(n * math.pi * vv / b)).ravel()
+    return ModalModel(np.array([t[0] for t in cands]), points, area, shapes, nu,
+                      min(du, dv), 0, 0.0)

@@ -60,6 +60,7 @@ _OBJECT_FIELDS = (
     "restitution",
     "contact_timeconst_s",
     "contact_dampratio",
+    "contact_modulus_ratio",
     "rgba",
     "sources",
     "grades",
@@ -73,6 +74,7 @@ _GRADE_FIELDS = (
     "restitution",
     "contact_timeconst_s",
     "contact_dampratio",
+    "contact_modulus_ratio",
     "rgba",
     "sources",
 )
@@ -81,6 +83,8 @@ _SURFACE_FIELDS = (
     "absorption",
     "scattering",
     "impact_material",
+    "structure_material",
+    "structure_thickness_m",
     "friction_sliding",
     "uses",
     "rgba",
@@ -112,6 +116,14 @@ class ObjectMaterial:
     contact_dampratio: float
     rgba: tuple[float, float, float, float]
     sources: tuple[str, ...]
+    #: the modulus a contact on the surface meets over ``youngs_modulus_pa`` (1: isotropic;
+    #: wood is hit across the grain, E_R / E_L ~ 0.1)
+    contact_modulus_ratio: float = 1.0
+
+    @property
+    def contact_modulus_pa(self) -> float:
+        """Young's modulus an impact on the surface meets (the Hertz contact's)."""
+        return self.youngs_modulus_pa * self.contact_modulus_ratio
 
     @property
     def friction(self) -> tuple[float, float, float]:
@@ -138,7 +150,11 @@ class SurfaceMaterial:
     description: str
     absorption: tuple[float, ...]  # one per OCTAVE_BANDS_HZ
     scattering: float
-    impact_material: str  # an ObjectMaterial reference
+    impact_material: str  # an ObjectMaterial reference: the finish a falling object meets
+    #: what vibrates when the surface is hit (an ObjectMaterial reference) and how thick it is:
+    #: the concrete slab under parquet or tiles, the boards on joists, a gypsum board on studs
+    structure_material: str
+    structure_thickness_m: float
     friction_sliding: float
     uses: tuple[str, ...]
     rgba: tuple[float, float, float, float]
@@ -217,6 +233,9 @@ def _elastic(f: Fields, base: ObjectMaterial | None) -> dict:
         restitution=num("restitution", lo=0.0, hi=0.95),
         contact_timeconst_s=num("contact_timeconst_s", lo=0.004, hi=0.1),
         contact_dampratio=num("contact_dampratio", positive=True, hi=10.0),
+        contact_modulus_ratio=(getattr(base, "contact_modulus_ratio")
+                               if base is not None and "contact_modulus_ratio" not in f
+                               else f.float("contact_modulus_ratio", 1.0, lo=0.001, hi=1.0)),
     )
 
 
@@ -266,6 +285,9 @@ def parse_surface_materials(f: Fields, objects: Mapping[str, ObjectMaterial]) ->
         impact = s.str("impact_material")
         if impact not in objects:
             raise s.error("impact_material", f"unknown object material {impact!r}")
+        structure = s.str("structure_material")
+        if structure not in objects:
+            raise s.error("structure_material", f"unknown object material {structure!r}")
         uses = s.strs("uses")
         for u in uses:
             if u not in SURFACE_USES:
@@ -276,6 +298,8 @@ def parse_surface_materials(f: Fields, objects: Mapping[str, ObjectMaterial]) ->
             absorption=absorption,
             scattering=s.float("scattering", 0.1, lo=0.0, hi=1.0),
             impact_material=impact,
+            structure_material=structure,
+            structure_thickness_m=s.float("structure_thickness_m", lo=0.002, hi=0.5),
             friction_sliding=s.float("friction_sliding", lo=0.0, hi=3.0),
             uses=uses,
             rgba=_rgba(s),
