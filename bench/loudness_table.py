@@ -1,7 +1,7 @@
 """Loudness calibration: the dry sound (free field, 1 m, no room) of reference drops onto a
 parquet, a tiled and a floorboard floor, as the dataset renders them (the rehearsal's contact
-recorder, then :class:`fallgen.audio.fall.FallRenderer`). Prints a Markdown table (peak and loudest 125 ms
-Leq, dB SPL re 20 uPa, and the share of the fall's energy radiated).
+recorder, then :class:`fallgen.audio.fall.FallRenderer`). Prints a Markdown table (peak and
+loudest 125 ms Leq, dB SPL re 20 uPa, and the share of the fall's energy radiated).
 
     python bench/loudness_table.py [--heights 0.75 1.5]
 """
