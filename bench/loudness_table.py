@@ -21,11 +21,9 @@ sys.path.insert(0, str(REPO / "src"))
 from fallgen.audio.fall import AudioSettings, FallRenderer  # noqa: E402
 from fallgen.audio.impact import radiated_energy_j  # noqa: E402
 from fallgen.audio.mix import levels_db_spl  # noqa: E402
-from fallgen.physics.contacts import ContactRecorder  # noqa: E402
-from fallgen.physics.drop import PHYSICS  # noqa: E402
+from fallgen.physics.drop import record_drop  # noqa: E402
 from fallgen.physics.events import FallEvent, ObjectSpec  # noqa: E402
 from fallgen.world.library import load_world  # noqa: E402
-from fallgen.world.scene import PlacedObject, build_scene  # noqa: E402
 
 #: (label, category, variant, material)
 OBJECTS = [
@@ -49,28 +47,13 @@ def drop(world, vid: str, category: str, variant: str, material: str, height: fl
     z = max((z for z in v.zones if z.kind == "floor"),
             key=lambda z: z.volume.half[0] * z.volume.half[1])
     inst = world.categories.instance(category, variant, material, 1.0)
-    quat = tuple(float(q) for q in np.array([0.96, 0.2, 0.1, 0.15]) / np.linalg.norm(
-        [0.96, 0.2, 0.1, 0.15]))
+    quat = np.array([0.96, 0.2, 0.1, 0.15]) / np.linalg.norm([0.96, 0.2, 0.1, 0.15])
     mat = np.empty(9)
-    mujoco.mju_quat2Mat(mat, np.asarray(quat))
+    mujoco.mju_quat2Mat(mat, quat)
     low = float((inst.geometry.vertices * inst.scale @ mat.reshape(3, 3).T)[:, 2].min())
     pos = (float(z.volume.center[0]), float(z.volume.center[1]), height - low)
-    scene = build_scene(v, world.materials, [PlacedObject("target", inst, pos, quat)],
-                        settings=PHYSICS)
-    m, d = scene.model, scene.data()
-    mujoco.mj_forward(m, d)
-    rec = ContactRecorder(m, scene.object_body["target"], scene.geom_owner, scene.geom_material)
-    rec.step(d, steps)
-    return FallEvent(
-        event_id="cal", room_variant=vid, room_kind=v.kind, zone="", zone_kind="floor",
-        trial=0, root_seed=0, target=ObjectSpec(category, variant, material, 1.0),
-        audio_material=inst.material.audio, mass_kg=inst.mass_kg, start_pos=pos,
-        start_quat=quat, start_linvel=(0.0, 0.0, 0.0), start_angvel=(0.0, 0.0, 0.0),
-        settle_pos=tuple(map(float, d.qpos[:3])), settle_quat=tuple(map(float, d.qpos[3:7])),
-        settle_com=tuple(map(float, d.xipos[scene.object_body["target"]])),
-        settle_time_s=steps * m.opt.timestep, steps=steps, distractors=(), occluders=(),
-        contacts=tuple(rec.finish()))
-
+    return record_drop(world, vid, z, ObjectSpec(category, variant, material, 1.0), pos, quat,
+                       steps, event_id="cal")
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])

@@ -2,14 +2,11 @@
 
 from __future__ import annotations
 
-import mujoco
 import numpy as np
 import pytest
 
-from fallgen.physics.contacts import ContactRecorder
-from fallgen.physics.drop import PHYSICS
+from fallgen.physics.drop import record_drop
 from fallgen.physics.events import FallEvent, ObjectSpec
-from fallgen.world.scene import PlacedObject, build_scene
 
 VARIANT = "study_loft-l1-m1"
 
@@ -22,31 +19,10 @@ def _drop_event(world, category, variant, material, height, steps=900, zone_kind
     v = world.variant(VARIANT)
     z = max((z for z in v.zones if z.kind == zone_kind),
             key=lambda z: z.volume.half[0] * z.volume.half[1])
-    inst = world.categories.instance(category, variant, material, 1.0)
     pos = (float(z.volume.center[0]), float(z.volume.center[1]), height)
-    quat = (0.96, 0.2, 0.1, 0.15)
-    quat = tuple(float(q) for q in np.asarray(quat) / np.linalg.norm(quat))
-    statics = [PlacedObject(f"d{k}", world.categories.instance(p.object.category,
-                                                                 p.object.variant,
-                                                                 p.object.material,
-                                                                 p.object.scale),
-                            p.pos, p.quat, free=False) for k, p in enumerate(distractors)]
-    scene = build_scene(v, world.materials, [PlacedObject("target", inst, pos, quat)] + statics,
-                        settings=PHYSICS)
-    m, d = scene.model, scene.data()
-    mujoco.mj_forward(m, d)
-    rec = ContactRecorder(m, scene.object_body["target"], scene.geom_owner, scene.geom_material)
-    rec.step(d, steps)
-    return FallEvent(
-        event_id="test", room_variant=VARIANT, room_kind=v.kind, zone=z.id, zone_kind=z.kind,
-        trial=0, root_seed=0, target=ObjectSpec(category, variant, material, 1.0),
-        audio_material=inst.material.audio, mass_kg=inst.mass_kg, start_pos=pos,
-        start_quat=quat, start_linvel=(0.0, 0.0, 0.0), start_angvel=(0.0, 0.0, 0.0),
-        settle_pos=tuple(map(float, d.qpos[:3])), settle_quat=tuple(map(float, d.qpos[3:7])),
-        settle_com=tuple(map(float, d.xipos[scene.object_body["target"]])),
-        settle_time_s=steps * m.opt.timestep,
-        steps=steps, distractors=tuple(distractors), occluders=(),
-        contacts=tuple(rec.finish()))
+    quat = np.asarray((0.96, 0.2, 0.1, 0.15))
+    return record_drop(world, VARIANT, z, ObjectSpec(category, variant, material, 1.0), pos,
+                       quat / np.linalg.norm(quat), steps, tuple(distractors), "test")
 
 
 @pytest.fixture(scope="session")

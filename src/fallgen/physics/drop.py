@@ -384,3 +384,31 @@ def replay(world: World, event: FallEvent, criteria: SettleCriteria = SettleCrit
                                          event.start_angvel, criteria, max_steps=event.steps,
                                          agent=agent)
     return Replay(res.pos, res.quat, com, tuple(contacts), res.settled, scene)
+
+
+def record_drop(world: World, variant_id: str, zone: Zone, target: ObjectSpec, pos, quat,
+                steps: int, distractors: tuple[Placement, ...] = (),
+                event_id: str = "drop") -> FallEvent:
+    """A fall recorded as the rehearsal records one (physics-only scene, the contact recorder)
+    but placed by hand: ``target`` let go at rest at ``pos``, ``quat`` over ``zone``, with
+    static ``distractors``, for exactly ``steps`` steps; no settle or zone checks. For tests
+    and calibration drops."""
+    v = world.variant(variant_id)
+    inst = _instance(world, target)
+    pos, quat = tuple(map(float, pos)), tuple(map(float, quat))
+    scene = build_scene(v, world.materials,
+                        _scene_objects(world, inst, pos, quat, distractors, ()),
+                        settings=PHYSICS)
+    m, d = scene.model, scene.data()
+    mujoco.mj_forward(m, d)
+    body = scene.object_body["target"]
+    rec = ContactRecorder(m, body, scene.geom_owner, scene.geom_material)
+    rec.step(d, steps)
+    return FallEvent(
+        event_id=event_id, room_variant=variant_id, room_kind=v.kind, zone=zone.id,
+        zone_kind=zone.kind, trial=0, root_seed=0, target=target,
+        audio_material=inst.material.audio, mass_kg=inst.mass_kg, start_pos=pos,
+        start_quat=quat, start_linvel=(0.0, 0.0, 0.0), start_angvel=(0.0, 0.0, 0.0),
+        settle_pos=tuple(map(float, d.qpos[:3])), settle_quat=tuple(map(float, d.qpos[3:7])),
+        settle_com=tuple(map(float, d.xipos[body])), settle_time_s=steps * m.opt.timestep,
+        steps=steps, distractors=tuple(distractors), occluders=(), contacts=tuple(rec.finish()))
