@@ -115,12 +115,12 @@ def main() -> None:
             # a new object pair every time (as PyImpact's "new pair" case): rescale the cached
             # reference modes and compute the radiation factors again
             obj = SoundingBody(obj0.modes.scaled(1e10, 1000.0, 1.0), obj0.loss_factor,
-                               obj0.youngs_modulus_pa, obj0.poisson_ratio, obj0.mass_kg,
+                               obj0.contact_modulus_pa, obj0.poisson_ratio, obj0.mass_kg,
                                obj0.contact_radius_m)
             floor = SoundingBody(floor0.modes.scaled(1e10, 1000.0, 1.0), floor0.loss_factor,
-                                 floor0.youngs_modulus_pa, floor0.poisson_ratio,
+                                 floor0.contact_modulus_pa, floor0.poisson_ratio,
                                  floor0.mass_kg, floor0.contact_radius_m)
-            h = hertz_impact(obj.youngs_modulus_pa, obj.poisson_ratio, floor.youngs_modulus_pa,
+            h = hertz_impact(obj.contact_modulus_pa, obj.poisson_ratio, floor.contact_modulus_pa,
                              floor.poisson_ratio, obj.contact_radius_m, math.inf, obj.mass_kg,
                              math.inf, speed)
             j = inst.mass_kg * speed * (1 + inst.material.restitution)

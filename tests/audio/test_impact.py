@@ -38,7 +38,7 @@ TIP = np.array([0.05, 0.01, 0.004])  # a corner
 
 
 def _hit(body, speed, t=0.01):
-    h = hertz_impact(body.youngs_modulus_pa, body.poisson_ratio, 6e10, 0.2,
+    h = hertz_impact(body.contact_modulus_pa, body.poisson_ratio, 6e10, 0.2,
                      body.contact_radius_m, math.inf, body.mass_kg, math.inf, speed)
     return ModalHit(t, TIP, body.mass_kg * speed, h.duration_s)
 

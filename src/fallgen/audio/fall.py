@@ -386,7 +386,7 @@ class FallRenderer:
             # pinched contact's recorded impulse can be many times that (resting forces
             # squeezing it), which is no impact: no sound is made of the excess.
             j = min(c.impulse_ns, a.mass_kg * v) * (1.0 + e)
-            h = hertz_impact(a.youngs_modulus_pa, a.poisson_ratio, b.youngs_modulus_pa,
+            h = hertz_impact(a.contact_modulus_pa, a.poisson_ratio, b.contact_modulus_pa,
                              b.poisson_ratio, a.contact_radius_m, b.contact_radius_m,
                              a.mass_kg, math.inf, v)
             p_target = np.asarray(c.point_object, float)

@@ -56,7 +56,9 @@ class SoundingBody:
 
     modes: ModalModel
     loss_factor: float
-    youngs_modulus_pa: float
+    #: the Young's modulus an impact on its surface meets (its material's
+    #: ``contact_modulus_pa``: across the grain for wood), for the Hertz contact
+    contact_modulus_pa: float
     poisson_ratio: float
     mass_kg: float
     contact_radius_m: float
@@ -142,18 +144,25 @@ def force_signal(hits: list[ModalHit], n_out: int, sample_rate: int) -> np.ndarr
     """The hits' half-sine force pulses (N), each sample the mean force over its interval (the
     impulse it receives times the rate: every pulse's impulse exactly, however short)."""
     fs = float(sample_rate)
-    force = np.zeros(n_out + 1)
-    for h in hits:
-        i0 = int(round(h.time_s * fs))
-        if h.impulse_ns <= 0 or i0 >= n_out:
-            continue
-        tc = max(h.duration_s, 1e-9)
-        edges = np.arange(int(math.ceil(tc * fs)) + 1) / fs  # sample edges from the start
-        cum = 0.5 * h.impulse_ns * (1.0 - np.cos(math.pi * np.minimum(edges, tc) / tc))
-        bins = np.diff(np.append(cum, h.impulse_ns))  # impulse per sample interval
-        stop = min(i0 + len(bins), n_out)
-        force[i0:stop] += bins[:stop - i0] * fs
-    return force[:n_out]
+    force = np.zeros(n_out)
+    hits = [h for h in hits if h.impulse_ns > 0 and int(round(h.time_s * fs)) < n_out]
+    if not hits:
+        return force
+    i0 = np.array([int(round(h.time_s * fs)) for h in hits])
+    J = np.array([h.impulse_ns for h in hits])
+    tc = np.maximum([h.duration_s for h in hits], 1e-9)
+    n = np.ceil(tc * fs).astype(int) + 1  # sample intervals each pulse touches
+    hit = np.repeat(np.arange(len(hits)), n)  # every interval, hit by hit
+    j = np.arange(len(hit)) - np.repeat(np.cumsum(n) - n, n)  # interval within its pulse
+    Jh, th = J[hit], tc[hit]
+    # the impulse delivered up to the interval's start and its end (the last: all of it)
+    start = 0.5 * Jh * (1.0 - np.cos(math.pi * np.minimum(j / fs, th) / th))
+    end = np.where(j == n[hit] - 1, Jh,
+                   0.5 * Jh * (1.0 - np.cos(math.pi * np.minimum((j + 1) / fs, th) / th)))
+    at = i0[hit] + j
+    ok = at < n_out
+    np.add.at(force, at[ok], (end - start)[ok] * fs)
+    return force
 
 
 def plate_pressure(mass_per_area_kg_m2: float, hits: list[ModalHit], n_out: int,
