@@ -188,3 +188,11 @@ def test_resuming_into_another_versions_shards_is_an_error(tmp_path):
     assert str(path) in str(e.value) and "\n" not in str(e.value)
     pq.write_table(pa.table({c: pa.array([], pa.null()) for c in COLUMNS}), path)
     assert job.done(tmp_path)
+    # a shard whose every episode was dropped, as ShardWriter writes it, is done too (the
+    # check refused it, so a build with such a shard could not finish)
+    from fallgen.dataset.writer import ShardWriter
+
+    path.unlink()
+    w = ShardWriter(tmp_path, "train", 0, 1, ("floor",))
+    w.close([], [[0, [["e0", "inaudible"]]]])
+    assert job.done(tmp_path)
