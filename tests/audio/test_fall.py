@@ -234,7 +234,8 @@ def test_a_surface_yields_as_the_large_plate_it_is(world, build_renderer, surfac
     times the approach speed, Z v, Z = 8 sqrt(B m'') (a large plate; Cremer, Heckl &
     Petersson ch. 5): in a full build a 0.8 kg ceramic jug thrown against a 4 mm pane at
     2.3 m/s pushed it with 11 kN when the pane's patch model alone set the contact
-    (Z v ~1.1 kN). A light pane is where the bound acts. ``rigid``: the bodies' modes left
+    (Z v ~1.1 kN; now 0.7 kN, hertz.plate_contact). A light pane is where the bound acts.
+    ``rigid``: the bodies' modes left
     out of the contact (it lasts the rigid Hertz time), as where a patch's few modes leave it
     stiff."""
     import math
@@ -249,7 +250,7 @@ def test_a_surface_yields_as_the_large_plate_it_is(world, build_renderer, surfac
     renderer = build_renderer
     mats = world.materials
     finish = mats.object(mats.surface(surface).impact_material)
-    bound_acts = 0
+    near = 0.0  # the largest share of Z v a hit's force reaches
     for cid, var, mat in (("key", "house", "metal/brass"), ("jug", "ceramic", "ceramic"),
                           ("bookend", "marble", "stone")):
         obj = world.categories.instance(cid, var, mat)
@@ -268,8 +269,8 @@ def test_a_surface_yields_as_the_large_plate_it_is(world, build_renderer, surfac
             for hit in patch.hits:
                 peak = math.pi * hit.impulse_ns / (2 * hit.duration_s)  # half-sine pulse
                 assert peak <= z * v * (1 + 1e-9), (surface, cid, v, peak, z * v)
-                bound_acts += peak > z * v * (1 - 1e-9)
-    if surface == "glass_window" and rigid:
-        assert bound_acts > 0
+                near = max(near, peak / (z * v))
+    if surface == "glass_window" and rigid:  # the pane's impedance is what holds the force
+        assert near > 0.5, near  # (2 / pi of Z v where the pane takes the whole impact)
     if surface == "concrete_bare":  # a slab: the contact's own stiffness sets the force
-        assert bound_acts == 0
+        assert near < 0.05, near

@@ -43,3 +43,50 @@ def test_half_sine_spectrum():
     assert s[2] == pytest.approx(math.pi / 4)
     assert s[3] == pytest.approx(0.0, abs=1e-12)  # first spectral zero at w t_c = 3 pi
     assert s[4] < 0.01
+
+
+@pytest.mark.parametrize("zeta", [0.02, 0.3, 0.8, 1.0, 1.5, 6.0])
+def test_plate_contact_against_its_differential_equation(zeta):
+    """Zener's impact on a large plate (linearised): the rebound, the impulse, the energy
+    the plate takes and the energy-equivalent pulse, against an explicit integration of
+    m x'' = -F, F = k (x - w), Z w' = F, while F > 0."""
+    from fallgen.audio.hertz import plate_contact
+
+    m, v, tc = 0.4, 3.0, 4e-4
+    k = m * (math.pi / tc) ** 2
+    z = math.pi * m / (2 * zeta * tc)
+    r = plate_contact(m, tc, z)
+    assert r.zeta == pytest.approx(zeta, rel=1e-12)
+    dt = min(tc, m / z) / 4000
+    x, xd, w, imp, f2 = 0.0, v, 0.0, 0.0, 0.0
+    for _ in range(int(200 * max(tc, m / z) / dt)):
+        f = k * (x - w)
+        if f < 0 or (f < 1e-9 * k * v * tc and xd < 0 and imp > 0):
+            break
+        imp += f * dt
+        f2 += f * f * dt
+        # semi-implicit: the dashpot relaxes exactly over the step for the current compression
+        xd -= f / m * dt
+        x += xd * dt
+        w += f / z * dt
+    e = -xd / v
+    assert max(e, 0.0) == pytest.approx(r.restitution, abs=0.01)
+    assert imp == pytest.approx(m * v * (1 + r.restitution), rel=0.01)
+    assert f2 / z == pytest.approx(0.5 * m * v * v * (1 - r.restitution ** 2), rel=0.02)
+    # the half-sine of the same impulse and integral of F^2
+    j = m * v * (1 + r.restitution)
+    assert math.pi ** 2 * j * j / (8 * r.duration_s) == pytest.approx(f2, rel=0.02)
+    # never above the plate's Z v, never shorter than the rigid contact
+    assert math.pi * j / (2 * r.duration_s) <= z * v * (1 + 1e-9)
+    assert r.duration_s >= tc
+
+
+def test_plate_contact_limits():
+    from fallgen.audio.hertz import plate_contact
+
+    rigid = plate_contact(0.3, 2e-4, math.inf)
+    assert rigid.restitution == 1.0 and rigid.duration_s == 2e-4
+    stiff = plate_contact(0.3, 2e-4, 1e9)  # a slab: the Hertz pulse itself
+    assert stiff.duration_s == pytest.approx(2e-4, rel=1e-3) and stiff.restitution > 0.99
+    with pytest.raises(ValueError):
+        plate_contact(0.3, 2e-4, 0.0)

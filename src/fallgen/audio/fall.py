@@ -47,7 +47,7 @@ import numpy as np
 import trimesh
 
 from fallgen.audio.coupling import coupled_impact
-from fallgen.audio.hertz import hertz_impact
+from fallgen.audio.hertz import hertz_impact, plate_contact
 from fallgen.audio.impact import C_AIR, ModalHit, SoundingBody, plate_pressure, render
 from fallgen.audio.mix import DrySource
 from fallgen.audio.modes import ModalModel, ModalSettings, modal_model, round_nu
@@ -385,17 +385,25 @@ class FallRenderer:
         if c.kind == "impact":
             e = min(target.material.restitution, other.material.restitution)
             v = max(c.normal_speed_mps, 1e-3)
+            h = hertz_impact(a.contact_modulus_pa, a.poisson_ratio, b.contact_modulus_pa,
+                             b.poisson_ratio, a.contact_radius_m, b.contact_radius_m,
+                             a.mass_kg, math.inf, v)
+            m_eff = float(np.clip(c.impulse_ns / v, 1e-6, a.mass_kg))
+            # a room surface is a large plate: where it is struck it yields as a dashpot, its
+            # point impedance Z = 8 sqrt(B m'') (Cremer, Heckl & Petersson ch. 5), in series
+            # with the contact (hertz.plate_contact, Zener's model): a light pane or board
+            # takes much of the impact, the force lasts longer and never exceeds Z v (the
+            # patch's few modes alone leave it rigid far above its highest: a jug thrown
+            # against a 4 mm pane pushed it with 11 kN, Z v ~1.1 kN); a slab is rigid
+            plate = plate_contact(m_eff, h.duration_s, other.point_impedance_n_s_m)
+            e *= plate.restitution
             # A free body hitting a surface at v takes at most (1 + e) m v; a wedged or
             # pinched contact's recorded impulse can be many times that (resting forces
             # squeezing it), which is no impact: no sound is made of the excess.
             j = min(c.impulse_ns, a.mass_kg * v) * (1.0 + e)
-            h = hertz_impact(a.contact_modulus_pa, a.poisson_ratio, b.contact_modulus_pa,
-                             b.poisson_ratio, a.contact_radius_m, b.contact_radius_m,
-                             a.mass_kg, math.inf, v)
             p_target = np.asarray(c.point_object, float)
             # the modes take what the contact gives them (coupling.py), at most what the
             # impact loses: (1 - e^2) of the effective mass's kinetic energy
-            m_eff = float(np.clip(c.impulse_ns / v, 1e-6, a.mass_kg))
             bt, bo = _contact_modes(a, p_target, None), _contact_modes(b, p_other, -n_other)
             imp = coupled_impact(m_eff, v, h.duration_s, [bt, bo])
             cap = (1.0 - e * e) * imp.incoming_j
@@ -403,13 +411,7 @@ class FallRenderer:
                 imp = imp.scaled(math.sqrt(cap / imp.vibration_j))
             # the force lasts as long as the bodies touch: longer than the rigid Hertz time
             # where a wall yields (the rigid-body noise's pulse)
-            t_force = max(h.duration_s, imp.duration_s)
-            # a room surface is a large plate: where it is struck it yields as its point
-            # impedance Z = 8 sqrt(B m'') (Cremer, Heckl & Petersson, ch. 5), so the force can
-            # never exceed Z v, however stiff the contact (the patch's few modes would leave it
-            # rigid far above its highest: a jug against a 4 mm pane took 11 kN, Z v ~1.1 kN);
-            # the pulse (peak pi J / (2 t)) lasts at least as long as that allows
-            t_force = max(t_force, math.pi * j / (2.0 * other.point_impedance_n_s_m * v))
+            t_force = max(plate.duration_s, imp.duration_s)
             target.hits.append(ModalHit(c.time_s, p_target, j, t_force, None,
                                         (imp.displacement[0], imp.velocity[0],
                                          imp.duration_s)))

@@ -82,3 +82,41 @@ def half_sine_spectrum(omega: np.ndarray, duration_s: float) -> np.ndarray:
     xx = x[~near]
     out[~near] = np.abs(np.cos(np.pi * xx / 2) / (1 - xx ** 2))
     return out
+
+
+@dataclass(frozen=True)
+class PlateContact:
+    """An impact on a large plate (Zener 1941, "The intrinsic inelasticity of large plates",
+    Phys. Rev. 59, linearised): the impactor meets the contact spring k = m (pi / t_c)^2 (its
+    rigid Hertz time t_c) in series with the plate's point impedance Z, a dashpot (an infinite
+    thin plate's point mobility is real, 1 / (8 sqrt(B m''))), so the force obeys
+    F'' + (k / Z) F' + (k / m) F = 0, F(0) = 0, F'(0) = k v. With zeta = pi m / (2 Z t_c):
+
+    - the rebound's share of the approach speed ``restitution`` = exp(-pi zeta /
+      sqrt(1 - zeta^2)) (0 from zeta = 1: the plate takes the whole impact);
+    - the impulse m v (1 + restitution); the energy the plate carries away, which is
+      the integral of F^2 / Z, m v^2 (1 - restitution^2) / 2;
+    - ``duration_s``: the half-sine pulse of the same impulse and the same integral of F^2 (a
+      plate's forced sound is proportional to F, so it radiates the same energy):
+      pi^2 m (1 + e) / (4 Z (1 - e)), the rigid Hertz time t_c when Z is infinite, and
+      pi^2 m / (4 Z) (a peak of 2 Z v / pi, under the plate's Z v) when it is small."""
+
+    zeta: float
+    restitution: float
+    duration_s: float
+
+
+def plate_contact(mass_kg: float, contact_time_s: float, point_impedance_n_s_m: float
+                  ) -> PlateContact:
+    """The impact of ``mass_kg`` through a contact of rigid Hertz time ``contact_time_s`` on a
+    large plate of point impedance ``point_impedance_n_s_m`` (:class:`PlateContact`)."""
+    if mass_kg <= 0 or contact_time_s <= 0 or point_impedance_n_s_m <= 0:
+        raise ValueError("mass, contact time and impedance must be positive")
+    if math.isinf(point_impedance_n_s_m):
+        return PlateContact(0.0, 1.0, contact_time_s)
+    zeta = math.pi * mass_kg / (2.0 * point_impedance_n_s_m * contact_time_s)
+    e = math.exp(-math.pi * zeta / math.sqrt(1.0 - zeta * zeta)) if zeta < 1.0 else 0.0
+    if e > 1.0 - 1e-9:  # a stiff plate: the Hertz pulse itself (the limit, without round-off)
+        return PlateContact(zeta, e, contact_time_s)
+    t = math.pi ** 2 * mass_kg * (1.0 + e) / (4.0 * point_impedance_n_s_m * (1.0 - e))
+    return PlateContact(zeta, e, max(t, contact_time_s))
