@@ -16,6 +16,7 @@ powers, set exactly. Drawn from the episode's generator: reproducible.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -60,13 +61,11 @@ def db_a(pressure_pa: np.ndarray, sample_rate: int) -> float:
     return 10 * math.log10(max(ms, 1e-30) / 4e-10)
 
 
-def ambient_noise(n: int, sample_rate: int, level_db_a: float, rng: np.random.Generator
-                  ) -> np.ndarray:
-    """(2, n) ear pressures (Pa, row 0 the left ear) of the ambient noise floor at
-    ``level_db_a`` (see the module's doc)."""
-    m = n // 2 + 1
+@functools.lru_cache(maxsize=8)
+def _shaping(n: int, sample_rate: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Per clip length: the spectrum's shape, the ears' coherence, the share of independent
+    noise and the A-weighted Parseval weights (read-only)."""
     f = np.fft.rfftfreq(n, 1.0 / sample_rate)
-    x = rng.standard_normal((2, m)) + 1j * rng.standard_normal((2, m))
     lo, hi = BAND_HZ
     with np.errstate(divide="ignore"):
         shape = np.where(f > 0, (np.maximum(f, 1e-9) / 1000.0)
@@ -76,9 +75,27 @@ def ambient_noise(n: int, sample_rate: int, level_db_a: float, rng: np.random.Ge
     edge_hi = np.clip(np.log2(hi / np.maximum(f, 1e-9)), 0, 1)
     shape *= np.sin(0.5 * math.pi * edge_lo) ** 2 * np.sin(0.5 * math.pi * edge_hi) ** 2
     coh = np.sinc(2 * f * EAR_SPACING_M / C_AIR)  # sin(k d) / (k d)
+    rest = np.sqrt(np.maximum(1 - coh ** 2, 0.0))
+    twice = np.full(len(f), 2.0)
+    twice[0] = 1.0
+    if n % 2 == 0:
+        twice[-1] = 1.0
+    weight = 10 ** (a_weighting_db(f) / 10) * twice
+    for a in (shape, coh, rest, weight):
+        a.flags.writeable = False
+    return shape, coh, rest, weight
+
+
+def ambient_noise(n: int, sample_rate: int, level_db_a: float, rng: np.random.Generator
+                  ) -> np.ndarray:
+    """(2, n) ear pressures (Pa, row 0 the left ear) of the ambient noise floor at
+    ``level_db_a`` (see the module's doc)."""
+    m = n // 2 + 1
+    shape, coh, rest, weight = _shaping(n, sample_rate)
+    x = rng.standard_normal((2, m)) + 1j * rng.standard_normal((2, m))
     left = x[0]
-    right = coh * x[0] + np.sqrt(np.maximum(1 - coh ** 2, 0.0)) * x[1]
+    right = coh * x[0] + rest * x[1]
     spec = np.vstack([left, right]) * shape
-    ms = _a_weighted_mean_square(spec, n, sample_rate)
+    ms = float(np.sum(np.abs(spec) ** 2 * weight)) / (len(spec) * n * n)
     scale = math.sqrt(4e-10 * 10 ** (level_db_a / 10) / max(ms, 1e-300))
     return np.fft.irfft(spec * scale, n=n, axis=-1)

@@ -110,21 +110,18 @@ def coupled_impact(mass_kg: float, speed_mps: float, contact_time_s: float,
             al = phi.T @ np.concatenate([[sm * x], q])
             be = phi.T @ np.concatenate([[sm * xd], qd]) / Om
 
-            def delta(t: np.ndarray) -> np.ndarray:
-                return np.cos(np.outer(t, Om)) @ (uphi * al) + np.sin(np.outer(t, Om)) @ (uphi * be)
+            delta = _Waves(0.0, 0.0, Om, uphi * al, uphi * be)
         else:  # apart: the impactor flies, each mode rings on its own
             reach = float(np.sum(np.abs(b) * np.hypot(q, qd / wq)))
             if xd < 0 and x < -reach:
                 break  # moving away beyond any wall motion: no further contact
 
-            def delta(t: np.ndarray) -> np.ndarray:
-                return x + xd * t - (np.cos(np.outer(t, wq)) @ (b * q)
-                                     + np.sin(np.outer(t, wq)) @ (b * qd / wq))
+            delta = _Waves(x, xd, wq, -b * q, -b * qd / wq)
         sign = 1.0 if touching else -1.0  # the phase lasts while sign * delta > 0
         horizon = t_end - t_now
         if not touching and xd < 0:  # past this it is beyond any wall motion
             horizon = min(horizon, (x + reach) / -xd)
-        t_cross = _first_crossing(lambda t: sign * delta(t), dt, horizon)
+        t_cross = _first_crossing(delta.signed(sign), dt, horizon)
         if t_cross is None:
             if touching:  # held to the end of the search: part there
                 t_cross = t_end - t_now
@@ -151,7 +148,31 @@ def coupled_impact(mass_kg: float, speed_mps: float, contact_time_s: float,
                          float(xd), 0.5 * mass_kg * speed_mps ** 2, vib)
 
 
-def _first_crossing(f, dt: float, horizon: float) -> float | None:
+class _Waves:
+    """f(t) = c0 + c1 t + sum_j a_j cos(w_j t) + b_j sin(w_j t), evaluated at points or on a
+    uniform grid (there by powers of e^(i w dt): no trigonometric function per point)."""
+
+    def __init__(self, c0: float, c1: float, w: np.ndarray, a: np.ndarray, b: np.ndarray,
+                 sign: float = 1.0) -> None:
+        self.c0, self.c1, self.w, self.a, self.b, self.sign = c0, c1, w, a, b, sign
+
+    def signed(self, sign: float) -> _Waves:
+        return _Waves(self.c0, self.c1, self.w, self.a, self.b, sign)
+
+    def __call__(self, t: np.ndarray) -> np.ndarray:
+        wt = np.outer(t, self.w)
+        return self.sign * (self.c0 + self.c1 * t + np.cos(wt) @ self.a + np.sin(wt) @ self.b)
+
+    def grid(self, t0: float, dt: float, n: int) -> np.ndarray:
+        from fallgen.audio.impact import _powers
+
+        t = t0 + dt * np.arange(n)
+        c = (self.a - 1j * self.b) * np.exp(1j * self.w * t0)
+        waves = (c @ _powers(np.exp(1j * self.w * dt), n)).real
+        return self.sign * (self.c0 + self.c1 * t + waves)
+
+
+def _first_crossing(f: _Waves, dt: float, horizon: float) -> float | None:
     """The first t in (0, horizon] where f(t) <= 0 (f > 0 just after 0): a grid of step
     ``dt`` (growing chunks: most phases end within a few steps), then Brent's method to
     ~1e-9 of a step."""
@@ -159,9 +180,9 @@ def _first_crossing(f, dt: float, horizon: float) -> float | None:
 
     t0, size = dt, 32
     while t0 <= horizon:
-        t = t0 + dt * np.arange(size)
-        t = t[t <= horizon + dt]
-        d = f(t)
+        n = min(size, int(math.floor((horizon + dt - t0) / dt + 1e-9)) + 1)
+        t = t0 + dt * np.arange(n)
+        d = f.grid(t0, dt, n)
         neg = np.flatnonzero(d <= 0)
         if len(neg):
             j = int(neg[0])
