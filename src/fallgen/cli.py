@@ -388,6 +388,12 @@ def stats(
                 f"{q} {a[q]:.1f}" for q in ("min", "p5", "p50", "p95", "max")))
     console.print("audio leq_125ms histogram (dB SPL: episodes): " + ", ".join(
         f"{k}: {v}" for k, v in s["audio_db_spl"]["leq_125ms_histogram"].items()))
+    if s.get("audio_energy_by_material"):
+        console.print("radiated / lost energy, median by audio material (median, max peak dB "
+                      "SPL): " + ", ".join(
+                          f"{k} {m['energy_ratio_p50']:.1e} ({m['peak_db_spl_p50']:.0f}, "
+                          f"{m['peak_db_spl_max']:.0f})"
+                          for k, m in s["audio_energy_by_material"].items()))
     t = Table("zone kind", "rehearsed", "share of events", "share of episodes", "ratio",
               "events skipped", "skip rate")
     for k, b in s["bias"].items():

@@ -216,6 +216,12 @@ def test_stats_counts_and_bias(tiny_build, tmp_path, cli):
     assert s["expert"]["actions"]["n"] == 6 and s["expert"]["actions"]["min"] >= 2
     assert 30 < s["audio_db_spl"]["peak"]["p50"] < 140
     assert sum(s["audio_db_spl"]["leq_125ms_histogram"].values()) == 6
+    mats = s["audio_energy_by_material"]
+    assert {k: m["episodes"] for k, m in mats.items()} == s["by_audio_material"]
+    for m in mats.values():
+        assert 0 < m["energy_ratio_p50"] < 0.05 and m["peak_db_spl_p50"] <= m["peak_db_spl_max"]
+    ratios = [m["energy_ratio_p50"] for m in mats.values()]
+    assert ratios == sorted(ratios, reverse=True)  # the most efficient radiators first
     rehearsed = sum(b["rehearsed_events"] for b in s["bias"].values())
     assert rehearsed == sum(pq.read_metadata(p).num_rows
                             for p in (base / "one" / "rehearsal").glob("*.parquet"))

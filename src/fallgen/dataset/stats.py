@@ -92,6 +92,19 @@ def stats(root: str | Path) -> dict:
     hist, _ = np.histogram([r["audio_leq_db_spl"] for r in rows], bins=edges)
     out["audio_db_spl"]["leq_125ms_histogram"] = {f"{a}-{a + 10}": int(h)
                                                   for a, h in zip(edges[:-1], hist) if h}
+    # per audio material: the share of the lost energy the sound carries and the level heard
+    # (what a material's median says of its physics; impacts of hard bodies on hard floors
+    # radiate ~1e-4 to 1e-2, soft bodies and carpets far less)
+    by_mat: dict[str, list[tuple[float, float]]] = {}
+    for r in rows:
+        if np.isfinite(r.get("audio_energy_ratio", np.nan)):
+            by_mat.setdefault(r["audio_material"], []).append(
+                (r["audio_energy_ratio"], r["audio_peak_db_spl"]))
+    out["audio_energy_by_material"] = {
+        k: {"episodes": len(v), "energy_ratio_p50": float(np.median([a for a, _ in v])),
+            "peak_db_spl_p50": float(np.median([b for _, b in v])),
+            "peak_db_spl_max": float(max(b for _, b in v))}
+        for k, v in sorted(by_mat.items(), key=lambda kv: -np.median([a for a, _ in kv[1]]))}
     # where the episodes come from, against what was rehearsed
     skips = [(e, reason) for r in rows for e, reason in json.loads(r["skipped_events"])]
     skips += [(e, reason) for _, tried in dropped for e, reason in tried]
