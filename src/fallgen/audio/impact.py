@@ -208,9 +208,15 @@ def coincidence_gain(f: np.ndarray, coincidence_hz: float, loss_factor: float,
     """Mean over the half space of |1 - (f / f_c)^2 sin^4(theta) (1 + i eta)|^-2: the point-
     driven infinite plate's radiated power over its near field's (1 below coincidence)."""
     th = (np.arange(n_angles) + 0.5) / n_angles * math.pi / 2
-    a = (np.asarray(f, float)[:, None] / coincidence_hz) ** 2
-    den = np.abs(1 - a * np.sin(th)[None, :] ** 4 * (1 + 1j * loss_factor)) ** 2
-    return (np.sin(th)[None, :] / den).sum(1) * (math.pi / 2 / n_angles)
+    f = np.asarray(f, float)
+    out = np.empty(f.shape)
+    # a few hundred frequencies at a time: the whole (frequency, angle) table of a filter's
+    # 2049 x 4000 points took ~260 MB at once (a worker's peak memory)
+    for i in range(0, len(f), 128):
+        a = (f[i:i + 128, None] / coincidence_hz) ** 2
+        den = np.abs(1 - a * np.sin(th)[None, :] ** 4 * (1 + 1j * loss_factor)) ** 2
+        out[i:i + 128] = (np.sin(th)[None, :] / den).sum(1) * (math.pi / 2 / n_angles)
+    return out
 
 
 @functools.lru_cache(maxsize=64)
