@@ -235,9 +235,8 @@ def test_a_surface_yields_as_the_large_plate_it_is(world, build_renderer, surfac
     Petersson ch. 5): in a full build a 0.8 kg ceramic jug thrown against a 4 mm pane at
     2.3 m/s pushed it with 11 kN when the pane's patch model alone set the contact
     (Z v ~1.1 kN; now 0.7 kN, hertz.plate_contact). A light pane is where the bound acts.
-    ``rigid``: the bodies' modes left
-    out of the contact (it lasts the rigid Hertz time), as where a patch's few modes leave it
-    stiff."""
+    ``rigid``: the bodies' modes left out of the contact (it lasts the rigid Hertz time), as
+    where a patch's few modes leave it stiff."""
     import math
 
     import fallgen.audio.fall as fall

@@ -65,7 +65,7 @@ def test_plate_contact_against_its_differential_equation(zeta):
             break
         imp += f * dt
         f2 += f * f * dt
-        # semi-implicit: the dashpot relaxes exactly over the step for the current compression
+        # explicit steps, thousands per contact time and per m / Z
         xd -= f / m * dt
         x += xd * dt
         w += f / z * dt

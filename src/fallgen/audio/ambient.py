@@ -40,16 +40,24 @@ def a_weighting_db(f_hz: np.ndarray) -> np.ndarray:
         return 20 * np.log10(ra) + 2.0
 
 
-def _a_weighted_mean_square(spec: np.ndarray, n: int, sample_rate: int) -> float:
-    """The A-weighted mean square (Pa^2) of (R, n // 2 + 1) one-sided spectra of R signals of
-    ``n`` samples, the mean over the rows (Parseval: the bins but DC and Nyquist count
-    twice)."""
+@functools.lru_cache(maxsize=8)
+def _a_weights(n: int, sample_rate: int) -> np.ndarray:
+    """Per one-sided bin of an ``n``-sample spectrum: its A-weighting (power) times its
+    Parseval count (the bins but DC and Nyquist count twice); read-only."""
     f = np.fft.rfftfreq(n, 1.0 / sample_rate)
     twice = np.full(len(f), 2.0)
     twice[0] = 1.0
     if n % 2 == 0:
         twice[-1] = 1.0
-    power = np.abs(spec) ** 2 * 10 ** (a_weighting_db(f) / 10) * twice
+    w = 10 ** (a_weighting_db(f) / 10) * twice
+    w.flags.writeable = False
+    return w
+
+
+def _a_weighted_mean_square(spec: np.ndarray, n: int, sample_rate: int) -> float:
+    """The A-weighted mean square (Pa^2) of (R, n // 2 + 1) one-sided spectra of R signals of
+    ``n`` samples, the mean over the rows."""
+    power = np.abs(spec) ** 2 * _a_weights(n, sample_rate)
     return float(np.sum(power)) / (len(spec) * n * n)
 
 
@@ -62,9 +70,9 @@ def db_a(pressure_pa: np.ndarray, sample_rate: int) -> float:
 
 
 @functools.lru_cache(maxsize=8)
-def _shaping(n: int, sample_rate: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Per clip length: the spectrum's shape, the ears' coherence, the share of independent
-    noise and the A-weighted Parseval weights (read-only)."""
+def _shaping(n: int, sample_rate: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per clip length: the spectrum's shape, the ears' coherence and the share of
+    independent noise (read-only)."""
     f = np.fft.rfftfreq(n, 1.0 / sample_rate)
     lo, hi = BAND_HZ
     with np.errstate(divide="ignore"):
@@ -76,14 +84,9 @@ def _shaping(n: int, sample_rate: int) -> tuple[np.ndarray, np.ndarray, np.ndarr
     shape *= np.sin(0.5 * math.pi * edge_lo) ** 2 * np.sin(0.5 * math.pi * edge_hi) ** 2
     coh = np.sinc(2 * f * EAR_SPACING_M / C_AIR)  # sin(k d) / (k d)
     rest = np.sqrt(np.maximum(1 - coh ** 2, 0.0))
-    twice = np.full(len(f), 2.0)
-    twice[0] = 1.0
-    if n % 2 == 0:
-        twice[-1] = 1.0
-    weight = 10 ** (a_weighting_db(f) / 10) * twice
-    for a in (shape, coh, rest, weight):
+    for a in (shape, coh, rest):
         a.flags.writeable = False
-    return shape, coh, rest, weight
+    return shape, coh, rest
 
 
 def ambient_noise(n: int, sample_rate: int, level_db_a: float, rng: np.random.Generator
@@ -91,11 +94,11 @@ def ambient_noise(n: int, sample_rate: int, level_db_a: float, rng: np.random.Ge
     """(2, n) ear pressures (Pa, row 0 the left ear) of the ambient noise floor at
     ``level_db_a`` (see the module's doc)."""
     m = n // 2 + 1
-    shape, coh, rest, weight = _shaping(n, sample_rate)
+    shape, coh, rest = _shaping(n, sample_rate)
     x = rng.standard_normal((2, m)) + 1j * rng.standard_normal((2, m))
     left = x[0]
     right = coh * x[0] + rest * x[1]
     spec = np.vstack([left, right]) * shape
-    ms = float(np.sum(np.abs(spec) ** 2 * weight)) / (len(spec) * n * n)
+    ms = _a_weighted_mean_square(spec, n, sample_rate)
     scale = math.sqrt(4e-10 * 10 ** (level_db_a / 10) / max(ms, 1e-300))
     return np.fft.irfft(spec * scale, n=n, axis=-1)

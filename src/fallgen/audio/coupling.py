@@ -163,12 +163,12 @@ class _Waves:
         wt = np.outer(t, self.w)
         return self.sign * (self.c0 + self.c1 * t + np.cos(wt) @ self.a + np.sin(wt) @ self.b)
 
-    def grid(self, t0: float, dt: float, n: int) -> np.ndarray:
+    def grid(self, t: np.ndarray, dt: float) -> np.ndarray:
+        """f on ``t``, a uniform grid of step ``dt``."""
         from fallgen.audio.impact import _powers
 
-        t = t0 + dt * np.arange(n)
-        c = (self.a - 1j * self.b) * np.exp(1j * self.w * t0)
-        waves = (c @ _powers(np.exp(1j * self.w * dt), n)).real
+        c = (self.a - 1j * self.b) * np.exp(1j * self.w * t[0])
+        waves = (c @ _powers(np.exp(1j * self.w * dt), len(t))).real
         return self.sign * (self.c0 + self.c1 * t + waves)
 
 
@@ -182,7 +182,7 @@ def _first_crossing(f: _Waves, dt: float, horizon: float) -> float | None:
     while t0 <= horizon:
         n = min(size, int(math.floor((horizon + dt - t0) / dt + 1e-9)) + 1)
         t = t0 + dt * np.arange(n)
-        d = f.grid(t0, dt, n)
+        d = f.grid(t, dt)
         neg = np.flatnonzero(d <= 0)
         if len(neg):
             j = int(neg[0])

@@ -100,11 +100,12 @@ def stats(root: str | Path) -> dict:
         if np.isfinite(r.get("audio_energy_ratio", np.nan)):
             by_mat.setdefault(r["audio_material"], []).append(
                 (r["audio_energy_ratio"], r["audio_peak_db_spl"]))
-    out["audio_energy_by_material"] = {
+    by_mat_summary = {
         k: {"episodes": len(v), "energy_ratio_p50": float(np.median([a for a, _ in v])),
             "peak_db_spl_p50": float(np.median([b for _, b in v])),
-            "peak_db_spl_max": float(max(b for _, b in v))}
-        for k, v in sorted(by_mat.items(), key=lambda kv: -np.median([a for a, _ in kv[1]]))}
+            "peak_db_spl_max": float(max(b for _, b in v))} for k, v in by_mat.items()}
+    out["audio_energy_by_material"] = dict(sorted(
+        by_mat_summary.items(), key=lambda kv: -kv[1]["energy_ratio_p50"]))
     # where the episodes come from, against what was rehearsed
     skips = [(e, reason) for r in rows for e, reason in json.loads(r["skipped_events"])]
     skips += [(e, reason) for _, tried in dropped for e, reason in tried]
