@@ -101,3 +101,28 @@ def test_plate_patch_is_the_simply_supported_plate():
     boards = plate_model(a, a, 0.022, 0.3, 4).scaled(1e10, 600.0, 1.0)
     assert 1000 < slab.omega[0] / (2 * math.pi) < 3000
     assert 100 < boards.omega[0] / (2 * math.pi) < 400
+
+
+def test_orthotropic_plate_patch_has_the_modal_density_of_its_impedance():
+    """Timber boards are orthotropic (``structure_stiffness_ratio`` r = D_y / D_x): the patch's
+    simply supported modes are at sqrt(D_x / m'') ((m pi / a)^2 + sqrt(r) (n pi / b)^2)
+    (Huffington's plate), and their count per band is the modal density
+    n(f) = A / 2 sqrt(m'' / sqrt(D_x D_y)) that makes the plate's mean point conductance
+    1 / (8 sqrt(m'') (D_x D_y)^(1/4)): the point impedance the renderer gives the surface."""
+    from fallgen.audio.shells import plate_model
+
+    a, t, nu, r = 0.6, 0.022, 0.35, 0.06
+    m = plate_model(a, a, t, nu, 400, stiffness_ratio=r)
+    D = E_REF * t ** 3 / (12 * (1 - nu ** 2))
+    c = math.sqrt(D / (RHO_REF * t))
+    assert m.omega[0] == pytest.approx(c * (1 + math.sqrt(r)) * (math.pi / a) ** 2, rel=1e-9)
+    iso = plate_model(a, a, t, nu, 400)
+    assert m.omega[0] < iso.omega[0]
+    f = m.omega / (2 * math.pi)
+    lo, hi = f[50], f[300]  # away from the lowest modes' and the truncation's edges
+    count = np.sum((f >= lo) & (f < hi))
+    density = a * a / 2 * math.sqrt(RHO_REF * t / (D * math.sqrt(r)))
+    assert count == pytest.approx(density * (hi - lo), rel=0.08)
+    # the same count, as an isotropic plate's, would be sqrt(1 / sqrt(r)) = 2x fewer
+    f_iso = iso.omega / (2 * math.pi)
+    assert np.sum((f_iso >= lo) & (f_iso < hi)) < 0.6 * count

@@ -261,6 +261,9 @@ def test_what_rings_behind_a_finish(lib):
         assert s[bonded].structure_thickness_m >= 0.1, bonded
     assert s["wood_planks"].structure_material.startswith("wood_")
     assert s["wood_planks"].structure_thickness_m < 0.05
+    # solid timber boards are orthotropic (E_T / E_L); slabs, panes and gypsum are not
+    assert 0.03 < s["wood_planks"].structure_stiffness_ratio < 0.1
+    assert s["glass_window"].structure_stiffness_ratio == 1.0
     assert s["gypsum_board"].structure_material == "stone/gypsum"
     assert s["glass_window"].structure_thickness_m < 0.01
 
@@ -402,6 +405,10 @@ def test_missing_file(tmp_path, fname):
         ("wood_parquet", "structure_material", None, "wood_parquet.structure_material"),
         ("wood_planks", "structure_thickness_m", "structure_thickness_m = 2.0",
          "wood_planks.structure_thickness_m"),
+        ("wood_planks", "structure_stiffness_ratio", "structure_stiffness_ratio = 1.5",
+         "wood_planks.structure_stiffness_ratio"),
+        ("wood_planks", "structure_stiffness_ratio", 'structure_stiffness_ratio = "low"',
+         "wood_planks.structure_stiffness_ratio"),
     ],
 )
 def test_malformed_surfaces(tmp_path, table, key, line, field):

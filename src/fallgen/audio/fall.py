@@ -86,7 +86,8 @@ class _Body:
     material: ObjectMaterial
     patch: bool = False  # a floor/wall/ceiling plate standing in for a large surface
     mass_per_area: float = 0.0  # a patch's structure, kg/m^2
-    coincidence_hz: float | None = None  # ... and its coincidence frequency
+    coincidence_hz: float | None = None  # ... its coincidence frequency (stiff direction)
+    stiffness_ratio: float = 1.0  # ... and its orthotropy, D_across / D_along
     #: ... and its point impedance as the large plate it is, 8 sqrt(B m'') (N s/m)
     point_impedance_n_s_m: float = math.inf
     #: a free body (an object): a hit jerks it as a whole, which radiates (acceleration
@@ -103,7 +104,8 @@ class _Body:
             return plate_pressure(self.mass_per_area, hits,
                                   int(round(s.length_s * s.sample_rate)), s.sample_rate,
                                   coincidence_hz=self.coincidence_hz,
-                                  loss_factor=self.sounding.loss_factor)
+                                  loss_factor=self.sounding.loss_factor,
+                                  stiffness_ratio=self.stiffness_ratio)
         return render(self.sounding, hits, s.length_s, s.sample_rate,
                       volume_m3=self.volume_m3 if self.free else None)
 
@@ -250,11 +252,12 @@ class FallRenderer:
         (:func:`~fallgen.audio.impact.plate_pressure`)."""
         struct = self.world.materials.object(surface.structure_material)
         t = surface.structure_thickness_m
-        key = ("plate", PATCH_M, t, round_nu(struct.poisson_ratio))
+        r = surface.structure_stiffness_ratio
+        key = ("plate", PATCH_M, t, round_nu(struct.poisson_ratio), r)
         ref = self._plates.get(key)
         if ref is None:  # closed form, ~1 MB, a handful per build: kept
             ref = self._plates[key] = plate_model(PATCH_M, PATCH_M, t, struct.poisson_ratio,
-                                                  self.s.modal.n_modes)
+                                                  self.s.modal.n_modes, stiffness_ratio=r)
         vol = PATCH_M * PATCH_M * t
         body = SoundingBody(ref.scaled(struct.youngs_modulus_pa, struct.density_kg_m3, 1.0),
                             max(struct.loss_factor, MOUNTED_LOSS_FACTOR),
@@ -263,9 +266,12 @@ class FallRenderer:
         m2 = struct.density_kg_m3 * t
         bending = struct.youngs_modulus_pa * t ** 3 / (12 * (1 - struct.poisson_ratio ** 2))
         fc = C_AIR ** 2 / (2 * math.pi) * math.sqrt(m2 / bending)
+        # an orthotropic plate's point impedance: 8 sqrt(m'') (D_x D_y)^(1/4) (the isotropic
+        # plate's in coordinates scaled by (D_y / D_x)^(1/4))
         return _Body(body, vol, np.asarray(pos, float), np.asarray(rot, float), finish,
                      patch=True, free=False, mass_per_area=m2, coincidence_hz=fc,
-                     point_impedance_n_s_m=8.0 * math.sqrt(bending * m2))
+                     stiffness_ratio=r,
+                     point_impedance_n_s_m=8.0 * math.sqrt(bending * m2) * r ** 0.25)
 
     def energy_lost_j(self, event: FallEvent) -> float:
         """The mechanical energy the fall loses, all of it in its contacts: the drop of the

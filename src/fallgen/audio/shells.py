@@ -156,19 +156,23 @@ def shell_modes(shell: ThinShell, nu: float, E: float, rho: float, n_modes: int
 
 
 def plate_model(a: float, b: float, thickness: float, nu: float, n_modes: int,
-                nodes: int = 48) -> ModalModel:
+                nodes: int = 48, stiffness_ratio: float = 1.0) -> ModalModel:
     """Reference modal model (E_REF, RHO_REF) of an ``a`` x ``b`` plate simply supported
     along its edges (a patch of floor between joists, of a wall between studs, of a slab),
     ``thickness`` thick, centred at the origin: the lowest ``n_modes`` of
     w = sin(m pi x / a) sin(n pi y / b), omega = sqrt(D / (rho h)) ((m pi / a)^2 + (n pi / b)^2),
     mass-normalised, on a ``nodes`` x ``nodes`` grid of its +z face (the face into the
-    room)."""
+    room). ``stiffness_ratio`` r = D_y / D_x < 1: an orthotropic plate (timber boards along
+    x) in Huffington's form, H = sqrt(D_x D_y), whose simply supported modes are the same
+    shapes at omega = sqrt(D_x / (rho h)) ((m pi / a)^2 + sqrt(r) (n pi / b)^2) (Leissa,
+    Vibration of Plates, NASA SP-160, 1969, ch. 11)."""
     from fallgen.audio.modes import E_REF, RHO_REF, ModalModel, round_nu
 
     nu = round_nu(nu)
     h = thickness
     c = math.sqrt(E_REF * h ** 3 / (12 * (1 - nu ** 2)) / (RHO_REF * h))
-    cands = sorted((c * ((m * math.pi / a) ** 2 + (n * math.pi / b) ** 2), m, n)
+    sr = math.sqrt(stiffness_ratio)
+    cands = sorted((c * ((m * math.pi / a) ** 2 + sr * (n * math.pi / b) ** 2), m, n)
                    for m in range(1, n_modes + 1) for n in range(1, n_modes + 1))[:n_modes]
     du, dv = a / nodes, b / nodes
     uu, vv = np.meshgrid((np.arange(nodes) + 0.5) * du, (np.arange(nodes) + 0.5) * dv,

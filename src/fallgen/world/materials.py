@@ -85,6 +85,7 @@ _SURFACE_FIELDS = (
     "impact_material",
     "structure_material",
     "structure_thickness_m",
+    "structure_stiffness_ratio",
     "friction_sliding",
     "uses",
     "rgba",
@@ -159,6 +160,9 @@ class SurfaceMaterial:
     uses: tuple[str, ...]
     rgba: tuple[float, float, float, float]
     sources: tuple[str, ...]
+    #: the structure's bending stiffness across its stiffer direction over along it (1: an
+    #: isotropic slab, board or pane; ~0.06: solid timber boards, E_T / E_L)
+    structure_stiffness_ratio: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -300,6 +304,8 @@ def parse_surface_materials(f: Fields, objects: Mapping[str, ObjectMaterial]) ->
             impact_material=impact,
             structure_material=structure,
             structure_thickness_m=s.float("structure_thickness_m", lo=0.002, hi=0.5),
+            structure_stiffness_ratio=s.float("structure_stiffness_ratio", 1.0, lo=0.01,
+                                              hi=1.0),
             friction_sliding=s.float("friction_sliding", lo=0.0, hi=3.0),
             uses=uses,
             rgba=_rgba(s),
