@@ -5,12 +5,14 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from fallgen.cli import main
 
 COMMANDS = [[], ["rooms"], ["rooms", "list"], ["rooms", "check"], ["rooms", "show"],
-            ["rooms", "export"], ["objects"], ["objects", "list"], ["objects", "show"], ["materials"],
+            ["rooms", "export"], ["rooms", "acoustics"], ["objects"], ["objects", "list"],
+            ["objects", "show"], ["materials"],
             ["materials", "list"], ["rehearse"], ["assets"], ["assets", "modes"], ["sounds"]]
 
 
@@ -53,6 +55,26 @@ def test_rooms_show_and_export(capsys, tmp_path):
     code, _, err = run(capsys, "rooms", "show", "kitchen_galley-*", "-o", str(tmp_path / "all"))
     assert code == 0, err
     assert len(list((tmp_path / "all").glob("*.png"))) == 8
+
+
+def test_rooms_acoustics(capsys, tmp_path):
+    """The furnished room's RT60 per octave band (7 values, 125 Hz-8 kHz) beside the T30 of a
+    rendered response, as JSON and as a table, and the decay curves' PNG."""
+    import json
+
+    png = tmp_path / "decay.png"
+    code, out, err = run(capsys, "rooms", "acoustics", "study_office-l1-m1", "--json", "-o",
+                         str(png))
+    assert code == 0, err
+    r = json.loads(out)
+    assert r["variant"] == "study_office-l1-m1" and len(r["rt60_s"]) == 7
+    assert all(0.1 < t < 3 for t in r["rt60_s"])
+    assert np.allclose(r["t30_s"], r["rt60_s"], rtol=0.25)  # it decays as modelled
+    assert 1.0 < r["mean_free_path_m"] < 3.0 and r["furniture_parts"] > 10
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    code, out, err = run(capsys, "rooms", "acoustics", "study_office-l1-m1")
+    assert code == 0, err
+    assert "RT60 model" in out and "T30 rendered" in out and "mean free path" in out
 
 
 def test_unknown_room(capsys, tmp_path):

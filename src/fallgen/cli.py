@@ -25,7 +25,7 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
     add_completion=False,
 )
-rooms_app = typer.Typer(help="Room variants: list, check, draw, export to MJCF.",
+rooms_app = typer.Typer(help="Room variants: list, check, draw, acoustics, export to MJCF.",
                         no_args_is_help=True)
 objects_app = typer.Typer(help="Object categories: list, check.", no_args_is_help=True)
 materials_app = typer.Typer(help="Object and surface materials.", no_args_is_help=True)
@@ -394,6 +394,11 @@ def stats(
                           f"{k} {m['energy_ratio_p50']:.1e} ({m['peak_db_spl_p50']:.0f}, "
                           f"{m['peak_db_spl_max']:.0f})"
                           for k, m in s["audio_energy_by_material"].items()))
+    if s.get("room_rt60_s"):
+        r = s["room_rt60_s"]
+        console.print(f"room RT60 over {r['variants']} variants, s (min / median / max): " +
+                      ", ".join(f"{k} Hz {b['min']:.2f} / {b['p50']:.2f} / {b['max']:.2f}"
+                                for k, b in r["by_band"].items()))
     t = Table("zone kind", "rehearsed", "share of events", "share of episodes", "ratio",
               "events skipped", "skip rate")
     for k, b in s["bias"].items():
@@ -482,6 +487,57 @@ def rooms_show(
     for img, p in images:
         write_png(img, p)
         console.print(f"wrote {p}")
+
+
+@rooms_app.command("acoustics")
+def rooms_acoustics(
+    room: Annotated[str, typer.Argument(help="Variant id (or a glob).")],
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON (one object per variant; "
+                                          "rt60_s: 7 values, 125 Hz to 8 kHz).")] = False,
+    out: Annotated[Optional[Path], typer.Option(
+        "-o", "--out", help="PNG of the decay curves (a directory for a glob).")] = None,
+    raytrace: Annotated[bool, typer.Option(
+        "--raytrace", help="Also trace rays through the furnished room (~10-60 s a variant).")
+    ] = False,
+    data_dir: DataDir = None,
+) -> None:
+    """A variant's furnished acoustics: RT60 per octave band (the renderer's model beside
+    Eyring, Sabine, Fitzroy and the bare room) and T30 measured on a rendered response, the
+    mean free path, the absorption; a PNG of the decay curves."""
+    import json
+
+    from fallgen.audio.acoustics import decay_png, room_report
+
+    world = _world(data_dir)
+    vs = _variants(world, room)
+    if out is not None and len(vs) > 1 and out.suffix:
+        raise InputError("<command line>", "--out", f"{room!r} matches {len(vs)} variants: "
+                         "give a directory, not a file")
+    reports = [room_report(v, world.materials, raytrace=raytrace) for v in vs]
+    for r in reports:
+        if out is not None:
+            decay_png(out if len(vs) == 1 and out.suffix else out / f"{r.variant}.png", r)
+        if as_json:
+            print(json.dumps(r.as_dict()))
+            continue
+        t = Table(title=f"{r.variant}: V {r.volume_m3:.1f} m^3, S {r.surface_m2:.1f} m^2 "
+                  f"({r.furniture_parts} furniture parts, {r.furniture_area_m2:.1f} m^2), "
+                  f"mean free path {r.mean_free_path_m:.2f} m")
+        t.add_column("")
+        for fc in r.bands_hz:
+            t.add_column(f"{fc:g} Hz", justify="right")
+        rows = [("RT60 model (Arau-Puchades), s", r.rt60_s), ("T30 rendered, s", r.t30_s),
+                ("Eyring, s", r.eyring_s), ("Sabine, s", r.sabine_s),
+                ("Fitzroy, s", r.fitzroy_s), ("bare room (Eyring), s", r.bare_eyring_s)]
+        if r.raytrace_t30_s is not None:
+            rows.insert(2, ("T30 ray tracer, s", r.raytrace_t30_s))
+        rows += [("absorption area, m^2", r.absorption_area_m2),
+                 ("  of it furniture, m^2", r.furniture_absorption_m2)]
+        for name, vals in rows:
+            t.add_row(name, *[f"{x:.2f}" for x in vals])
+        console.print(t)
+    if out is not None and not as_json:
+        console.print(f"wrote {len(reports)} PNG(s) under {out}")
 
 
 @rooms_app.command("export")
@@ -660,7 +716,7 @@ def sounds(
         msg = f"{stem}: {e.target.category}, {len(e.contacts)} contacts, " \
               f"peak {peak_db:.0f} dB SPL at 1 m"
         if ears is not None:
-            room = RoomAcoustics.from_shoebox(world.variant(e.room_variant).shoebox())
+            room = RoomAcoustics.furnished(world.variant(e.room_variant), world.materials)
             pos = np.asarray(head_pos if head_pos is not None else
                              (*(np.asarray(room.size_m[:2]) / 2), 1.2), float)
             to = np.asarray(e.settle_pos, float) - pos

@@ -6,10 +6,12 @@ from __future__ import annotations
 from fallgen.dataset.stats import AUDIO_MATERIALS, GOALS, goals
 
 
-def _rows(n=200, ratio=1e-3, peak=80.0, kinds=("floor", "shelf"), materials=AUDIO_MATERIALS):
+def _rows(n=200, ratio=1e-3, peak=80.0, kinds=("floor", "shelf"), materials=AUDIO_MATERIALS,
+          rt60=0.5):
     return [{"audio_energy_ratio": ratio, "audio_peak_db_spl": peak + (i % 7),
              "fall_height_m": 0.3 + 0.01 * (i % 50),
-             "zone_kind": kinds[i % len(kinds)], "audio_material": f"m{i % materials}"}
+             "zone_kind": kinds[i % len(kinds)], "audio_material": f"m{i % materials}",
+             "room_variant": f"v{i % 4}", "room_rt60_s": [0.8, 0.7, rt60, rt60, 0.5, 0.4, 0.3]}
             for i in range(n)]
 
 
@@ -37,6 +39,13 @@ def test_each_goal_fails_on_its_own_violation():
     z = goals(shelf_loud)["zone_median_vs_floor"]
     assert z["worst"] == "shelf" and not z["ok"]
     assert not goals(_rows(materials=12))["audio_materials"]["ok"]
+    rows = _rows()
+    for r in rows:  # one variant rings like an empty room
+        if r["room_variant"] == "v2":
+            r["room_rt60_s"] = [3.0] * 7
+    g = goals(rows)["rt60_mid"]
+    assert g["variants_outside"] == ["v2"] and not g["ok"]
+    assert not goals(_rows(rt60=0.2))["rt60_mid"]["ok"]  # a studio, not a home
     rows = _rows()
     rows[7]["fall_height_m"] = 0.05  # barely a fall
     assert goals(rows)["fall_height"] == {**goals(rows)["fall_height"], "short": 1, "ok": False}

@@ -347,6 +347,14 @@ def test_copy_of_shipped_files_loads(tmp_path):
         ("metal.grades.brass", "description", None, "metal.grades.brass.description"),
         ("wood_hard", "contact_modulus_ratio", "contact_modulus_ratio = 2.0",
          "wood_hard.contact_modulus_ratio"),
+        # a furniture part's acoustics: 7 octave bands in 0..1, a scattering coefficient
+        ("fabric", "absorption", None, "fabric.absorption"),
+        ("fabric", "absorption", "absorption = [0.4, 0.6, 0.8]", "fabric.absorption"),
+        ("paper", "absorption", "absorption = [0.1, 0.1, 1.3, 0.1, 0.1, 0.1, 0.1]",
+         "paper.absorption[2]"),
+        ("wood_medium", "scattering", "scattering = 2", "wood_medium.scattering"),
+        ("metal.grades.brass", "absorption", "absorption = [0.1]",
+         "metal.grades.brass.absorption"),
     ],
 )
 def test_malformed_objects(tmp_path, table, key, line, field):

@@ -17,8 +17,9 @@ direction), so there is no sinc truncation and no per-band filter bank.
 
 Late part: the image sources are used up to the time ``t_c`` by which every image of the chosen
 order has arrived (the nearest image of the next order). After ``t_c`` the response is Gaussian
-noise whose power in band b decays as exp(-13.82 t / T_b) with T_b the Eyring reverberation time
-(air absorption included); its level is fitted to the image sources' own band energy just before
+noise whose power in band b decays as exp(-13.82 t / T_b) with T_b the room's reverberation time
+(:meth:`RoomAcoustics.rt60`: Eyring's for a bare shoebox, Arau-Puchades' for a furnished one; air
+absorption included); its level is fitted to the image sources' own band energy just before
 ``t_c``, so the two join without a gap or jump. For two ears the noise is shaped per ear by the
 HRTF's diffuse-field power and given the interaural coherence of a diffuse field,
 sinc(2 pi f d / c) with d the ear distance. The noise comes from the caller's generator.
@@ -31,6 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from fallgen.audio.furnished import FurnishedAcoustics, Furnishing, furnishing
 from fallgen.world.materials import OCTAVE_BANDS_HZ
 from fallgen.world.rooms import SHOEBOX_FACES, Shoebox
 
@@ -47,15 +49,17 @@ DEFAULT_ORDER = 6
 KERNEL = 1024
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class RoomAcoustics:
-    """A shoebox's size and the octave-band absorption of its six faces."""
+    """A shoebox's size and the octave-band absorption of its six faces, and the furniture in
+    it (:mod:`fallgen.audio.furnished`; None: a bare room)."""
 
     size_m: tuple[float, float, float]
     absorption: np.ndarray  # (6, B) in SHOEBOX_FACES order
     air_absorption_per_m: np.ndarray = field(default_factory=lambda: np.asarray(AIR_ABSORPTION_PER_M))
     bands_hz: tuple[float, ...] = OCTAVE_BANDS_HZ
     c: float = C_SOUND
+    furniture: Furnishing | None = None
 
     @staticmethod
     def from_shoebox(box: Shoebox, air: bool = True) -> RoomAcoustics:
@@ -63,8 +67,38 @@ class RoomAcoustics:
         return RoomAcoustics(tuple(map(float, box.size_m)), a,
                              np.asarray(AIR_ABSORPTION_PER_M) * (1.0 if air else 0.0))
 
+    @staticmethod
+    def furnished(variant, materials) -> RoomAcoustics:
+        """The room of a :class:`~fallgen.world.rooms.RoomVariant` with its furniture."""
+        bare = RoomAcoustics.from_shoebox(variant.shoebox())
+        return RoomAcoustics(bare.size_m, bare.absorption, bare.air_absorption_per_m,
+                             furniture=furnishing(variant, materials))
+
+    def furnished_model(self) -> FurnishedAcoustics:
+        return FurnishedAcoustics(self.size_m, np.asarray(self.absorption, float),
+                                  self.furniture or Furnishing.empty(len(self.bands_hz)),
+                                  np.asarray(self.air_absorption_per_m, float))
+
+    def rt60(self) -> np.ndarray:
+        """(B,) the reverberation time the late reverb decays with: Eyring's for a bare room,
+        Arau-Puchades' over the furnished boundary and volume for a furnished one."""
+        if self.furniture is None:
+            return self.eyring_rt60()
+        return self.furnished_model().arau_rt60()
+
+    def image_attenuation_per_m(self) -> np.ndarray:
+        """(B,) intensity attenuation per metre of a reflected path: air, and the furniture's
+        take (:meth:`FurnishedAcoustics.volume_attenuation_per_m`)."""
+        air = np.asarray(self.air_absorption_per_m, float)
+        if self.furniture is None:
+            return air
+        return air + self.furnished_model().volume_attenuation_per_m()
+
     @property
     def volume_m3(self) -> float:
+        """The air's volume (the furnished room's: less the furniture's)."""
+        if self.furniture is not None:
+            return self.furnished_model().volume_m3
         return float(np.prod(self.size_m))
 
     def face_areas(self) -> np.ndarray:
@@ -77,13 +111,14 @@ class RoomAcoustics:
         return (s[:, None] * self.absorption).sum(0) / s.sum()
 
     def eyring_rt60(self) -> np.ndarray:
-        """(B,) RT60 = 0.161 V / (-S ln(1 - mean alpha) + 4 m V), seconds."""
-        v, s = self.volume_m3, self.face_areas().sum()
+        """(B,) RT60 = 0.161 V / (-S ln(1 - mean alpha) + 4 m V), seconds, of the bare
+        shoebox."""
+        v, s = float(np.prod(self.size_m)), self.face_areas().sum()
         a = np.minimum(self.mean_absorption(), 0.999999)
         return 0.161 * v / (-s * np.log1p(-a) + 4 * self.air_absorption_per_m * v)
 
     def sabine_rt60(self) -> np.ndarray:
-        v, s = self.volume_m3, self.face_areas().sum()
+        v, s = float(np.prod(self.size_m)), self.face_areas().sum()
         return 0.161 * v / (s * self.mean_absorption() + 4 * self.air_absorption_per_m * v)
 
 
@@ -173,6 +208,9 @@ def _arrivals(room: RoomAcoustics, im: ImageSources, listener, until_s: float | 
     v = im.positions - np.asarray(listener, float)
     r = np.maximum(np.linalg.norm(v, axis=1), 1e-3)
     amp = im.gains / r[:, None] * np.exp(-0.5 * np.outer(r, room.air_absorption_per_m))
+    if room.furniture is not None:  # the furniture's take from the reflected paths
+        extra = room.image_attenuation_per_m() - np.asarray(room.air_absorption_per_m, float)
+        amp = amp * np.where((im.order > 0)[:, None], np.exp(-0.5 * np.outer(r, extra)), 1.0)
     t = r / room.c
     keep = np.ones(len(t), bool) if until_s is None else t < until_s
     return Arrivals(t[keep], amp[keep], (v / r[:, None])[keep])
@@ -246,7 +284,7 @@ def late_reverb(room: RoomAcoustics, level: np.ndarray, start_s: float, n_out: i
                 ear_power: np.ndarray | None = None, ear_distance_m: float = 0.175,
                 frame: int = 1024) -> np.ndarray:
     """(E, n_out) decaying noise from ``start_s``: in band b its power per sample is
-    level_b exp(-13.82 (t - start_s) / T_b) (T_b Eyring), faded in over 5 ms at ``start_s``.
+    level_b exp(-13.82 (t - start_s) / T_b) (T_b: :meth:`RoomAcoustics.rt60`), faded in over 5 ms at ``start_s``.
     Built frame by frame in the STFT domain (sqrt-Hann frames, 50 % overlap). ``ear_power``
     (E, frame // 2 + 1): each ear's diffuse-field HRTF power; two ears get the diffuse-field
     interaural coherence."""
@@ -256,7 +294,7 @@ def late_reverb(room: RoomAcoustics, level: np.ndarray, start_s: float, n_out: i
     f = np.fft.rfftfreq(frame, 1.0 / sample_rate)
     W2 = band_weights(f, room.bands_hz) ** 2
     W2 /= W2.sum(0, keepdims=True)  # power-complementary
-    rt = room.eyring_rt60()
+    rt = room.rt60()
     t = (np.arange(n_frames) * hop - hop) / sample_rate  # frame centres (first frame at -hop)
     tt = np.maximum(t - start_s, 0.0)
     vb = np.asarray(level, float)[None, :] * np.exp(-13.82 * tt[:, None] / rt[None, :])  # (T, B)
@@ -298,7 +336,7 @@ def late_reverb(room: RoomAcoustics, level: np.ndarray, start_s: float, n_out: i
 def eyring_density(room: RoomAcoustics, t_s: float) -> np.ndarray:
     """(B,) expected squared-amplitude density per second of a diffuse field's arrivals at time
     t (1/r amplitudes): 4 pi c / V exp(-13.82 t / T_b)."""
-    return 4 * math.pi * room.c / room.volume_m3 * np.exp(-13.82 * t_s / room.eyring_rt60())
+    return 4 * math.pi * room.c / room.volume_m3 * np.exp(-13.82 * t_s / room.rt60())
 
 
 def fitted_late_level(room: RoomAcoustics, arr: Arrivals, t_c: float, sample_rate: int,
@@ -308,7 +346,7 @@ def fitted_late_level(room: RoomAcoustics, arr: Arrivals, t_c: float, sample_rat
     when fewer than 10 arrivals fall in the window)."""
     t0 = max(t_c - window_s, 0.0)
     sel = (arr.delay_s >= t0) & (arr.delay_s < t_c)
-    rt = room.eyring_rt60()
+    rt = room.rt60()
     if sel.sum() < 10:
         return eyring_density(room, t_c) / sample_rate
     e = band_energy(arr, t0, t_c)  # energy in the window

@@ -74,6 +74,9 @@ COLUMNS: dict[str, tuple[str, str, str]] = {
     "audio_energy_ratio": ("double", "", "audio_radiated_j / fall_energy_lost_j: impacts "
                            "radiate ~1e-4 to 1e-2 of their energy; every build checks it "
                            "against AUDIO_ENERGY_CEILING (fallgen stats)"),
+    "room_rt60_s": ("list<double>[7]", "s", "the furnished room's reverberation time per "
+                    "octave band, 125 Hz .. 8 kHz (Arau-Puchades over the walls and the "
+                    "furniture's exposed faces: the clip's late reverb decays with it)"),
     "sample_rate": ("int64", "Hz", "audio sample rate (44100)"),
     "instance_labels": ("string", "", "JSON list: instance segmentation value k -> "
                         "owner name (k = 0: nothing)"),

@@ -26,7 +26,7 @@ COLUMNS = ["episode_id", "split", "room_kind", "room_variant", "category", "audi
            "audio_peak_db_spl", "audio_leq_db_spl", "event_attempts", "skipped_events",
            "spawn_sees_object"]
 #: read when present (datasets built before they existed lack them)
-OPTIONAL = ["audio_energy_ratio", "fall_height_m"]
+OPTIONAL = ["audio_energy_ratio", "fall_height_m", "room_rt60_s"]
 #: The paper's audio materials: every one should be a target's.
 AUDIO_MATERIALS = 14
 #: Physical goals a paper-size build is checked against (issue 27): the share of the fall's
@@ -37,7 +37,11 @@ AUDIO_MATERIALS = 14
 GOALS = {"energy_ratio_ceiling": AUDIO_ENERGY_CEILING,
          "energy_ratio_median": (1e-4, 1e-2),
          "peak_db_spl": (35.0, 125.0), "peak_db_spl_p5_p95": (55.0, 110.0),
-         "zone_median_vs_floor_db": 15.0, "material_min_share": 0.01, "min_fall_m": 0.3}
+         "zone_median_vs_floor_db": 15.0, "material_min_share": 0.01, "min_fall_m": 0.3,
+         # issue 28: furnished dwellings' mid-frequency (500 Hz-1 kHz) reverberation time
+         # (ISO 16283-1's reference T0 = 0.5 s for dwellings; Diaz & Pedrero, Applied Acoustics
+         # 66, 2005: furnished bedrooms and living rooms ~0.3-0.9 s)
+         "rt60_mid_s": (0.3, 0.9)}
 PERCENTILES = (5, 25, 50, 75, 95)
 
 
@@ -106,6 +110,17 @@ def stats(root: str | Path) -> dict:
             "peak_db_spl_max": float(max(b for _, b in v))} for k, v in by_mat.items()}
     out["audio_energy_by_material"] = dict(sorted(
         by_mat_summary.items(), key=lambda kv: -kv[1]["energy_ratio_p50"]))
+    # the rooms' reverberation: each variant once (its furnished RT60 per band)
+    rt = {r["room_variant"]: r["room_rt60_s"] for r in rows if r.get("room_rt60_s")}
+    if rt:
+        arr = np.array(list(rt.values()), float)  # (variants, 7)
+        out["room_rt60_s"] = {
+            "variants": len(rt),
+            "by_band": {f"{fc:g}": _summary(arr[:, b])
+                        for b, fc in enumerate((125, 250, 500, 1000, 2000, 4000, 8000))},
+            "mid_500_1k": _summary(arr[:, 2:4].mean(1)),
+            "by_variant_mid": {k: round(float(np.mean(v[2:4])), 3)
+                               for k, v in sorted(rt.items())}}
     # where the episodes come from, against what was rehearsed
     skips = [(e, reason) for r in rows for e, reason in json.loads(r["skipped_events"])]
     skips += [(e, reason) for _, tried in dropped for e, reason in tried]
@@ -177,6 +192,16 @@ def goals(rows: list[dict]) -> dict:
                             "bound": f"every fall >= {lim:g} m", "ok": short == 0}
     else:
         g["fall_height"] = {"value": None, "bound": f"every fall >= {lim:g} m", "ok": None}
+    rt = {r["room_variant"]: r["room_rt60_s"] for r in rows if r.get("room_rt60_s")}
+    lo, hi = GOALS["rt60_mid_s"]
+    if rt:
+        mid = {k: float(np.mean(v[2:4])) for k, v in rt.items()}
+        outside = sorted(k for k, v in mid.items() if not lo <= v <= hi)
+        g["rt60_mid"] = {"value": [min(mid.values()), max(mid.values())],
+                         "outside": len(outside), "variants_outside": outside,
+                         "bound": f"{lo:g}..{hi:g} s (500 Hz-1 kHz)", "ok": not outside}
+    else:
+        g["rt60_mid"] = {"value": None, "bound": f"{lo:g}..{hi:g} s", "ok": None}
     mats = Counter(r["audio_material"] for r in rows)
     if rows:
         share = min(mats.values()) / len(rows)

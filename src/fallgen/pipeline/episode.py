@@ -102,6 +102,8 @@ class Episode:
     expert_poses: tuple[Pose, ...] = ()  # the spawn, then the pose after each expert action
     frames: tuple[View, ...] = ()  # the view at each of expert_poses (when asked)
     timings_s: dict[str, float] = field(default_factory=dict)
+    #: the furnished room's reverberation time per octave band (125 Hz .. 8 kHz), s
+    room_rt60_s: tuple[float, ...] = ()
 
 
 class EpisodeMaker:
@@ -116,6 +118,7 @@ class EpisodeMaker:
         self.sounds = FallRenderer(world)
         self.labels = world_category_labels(world)  # one segmentation table for a dataset
         self._room_samples: dict[str, np.ndarray] = {}  # variant -> the room's occupancy layer
+        self._rooms: dict[str, RoomAcoustics] = {}  # variant -> its furnished acoustics
         self._gl: GLContext | None = None  # one GL context for every episode's camera
 
     def close(self) -> None:
@@ -183,7 +186,9 @@ class EpisodeMaker:
             sources = self.sounds.render_sources(replayed, rng, sound_scene)
             energy = FallEnergy(sum(radiated_energy_j(src.signal, self.sounds.s.sample_rate)
                                     for src in sources), self.sounds.energy_lost_j(replayed))
-            room = RoomAcoustics.from_shoebox(variant.shoebox())
+            room = self._rooms.get(variant.id)
+            if room is None:
+                room = self._rooms[variant.id] = RoomAcoustics.furnished(variant, world.materials)
             head = Listener(np.array([spawn.x, spawn.y, spec.camera_height_m]), spawn.yaw_rad)
             clip = self.binaural.mix(room, sources, head, rng, self.rir, self.noise_db_a)
             lap("audio")
@@ -201,7 +206,7 @@ class EpisodeMaker:
             settled.close()
         return Episode(episode_id, event, spawn, sees, clip, view, grid, grid.cell(centre), ex,
                        out.spl(ex.shortest_m), out.sna(ex.fewest_actions), energy, out.poses,
-                       shots, t)
+                       shots, t, tuple(float(x) for x in room.rt60()))
 
     def _spawn(self, rng: np.random.Generator, grid: OccupancyGrid, centre: np.ndarray,
                camera: EgoCamera, data: mujoco.MjData) -> tuple[Pose, bool]:

@@ -61,6 +61,8 @@ _OBJECT_FIELDS = (
     "contact_timeconst_s",
     "contact_dampratio",
     "contact_modulus_ratio",
+    "absorption",
+    "scattering",
     "rgba",
     "sources",
     "grades",
@@ -75,6 +77,8 @@ _GRADE_FIELDS = (
     "contact_timeconst_s",
     "contact_dampratio",
     "contact_modulus_ratio",
+    "absorption",
+    "scattering",
     "rgba",
     "sources",
 )
@@ -120,6 +124,10 @@ class ObjectMaterial:
     #: the modulus a contact on the surface meets over ``youngs_modulus_pa`` (1: isotropic;
     #: wood is hit across the grain, E_R / E_L ~ 0.1)
     contact_modulus_ratio: float = 1.0
+    #: a furniture part of the material as a room surface: random-incidence absorption per
+    #: OCTAVE_BANDS_HZ band and scattering coefficient (the furnished room's acoustics)
+    absorption: tuple[float, ...] = ()
+    scattering: float = 0.1
 
     @property
     def contact_modulus_pa(self) -> float:
@@ -243,6 +251,20 @@ def _elastic(f: Fields, base: ObjectMaterial | None) -> dict:
     )
 
 
+def _acoustic(f: Fields, base: ObjectMaterial | None) -> dict:
+    """A furniture part's absorption and scattering; a grade inherits them unless it sets
+    them."""
+    if base is not None and "absorption" not in f:
+        absorption = base.absorption
+    else:
+        absorption = f.floats("absorption", n=len(OCTAVE_BANDS_HZ), lo=0.0, hi=1.0)
+    if base is not None and "scattering" not in f:
+        scattering = base.scattering
+    else:
+        scattering = f.float("scattering", lo=0.0, hi=1.0)
+    return dict(absorption=absorption, scattering=scattering)
+
+
 def parse_object_materials(f: Fields) -> dict[str, ObjectMaterial]:
     out: dict[str, ObjectMaterial] = {}
     for name, m in f.items():
@@ -253,6 +275,7 @@ def parse_object_materials(f: Fields) -> dict[str, ObjectMaterial]:
             audio=name,
             description=m.str("description"),
             **_elastic(m, None),
+            **_acoustic(m, None),
             resonant=m.bool("resonant"),
             friction_sliding=m.float("friction_sliding", lo=0.0, hi=3.0),
             friction_torsional_m=m.float("friction_torsional_m", lo=0.0, hi=0.1),
@@ -273,6 +296,7 @@ def parse_object_materials(f: Fields) -> dict[str, ObjectMaterial]:
                     rgba=_rgba(g, base.rgba),
                     sources=_sources(g),
                     **_elastic(g, base),
+                    **_acoustic(g, base),
                 )
                 g.reject_unknown(_GRADE_FIELDS)
         m.reject_unknown(_OBJECT_FIELDS)

@@ -1,0 +1,163 @@
+"""A room variant's acoustics, reported: what ``fallgen rooms acoustics`` prints and draws.
+
+For a variant: the furnished room's volume, surface, absorption and mean free path; the
+reverberation time the renderer uses (Arau-Puchades over the furnished boundary) beside Eyring,
+Sabine and Fitzroy; the T30 measured (ISO 3382-2: Schroeder backward integration, -5 to -35 dB)
+on an impulse response rendered exactly as episodes are (image sources and late reverb, omni);
+optionally the T30 of the ray tracer's energy decay (:mod:`fallgen.audio.raytrace`), the
+reference through the furnished geometry. The response's noise and the ray tracer's rays come
+from a generator seeded by the variant id, so a report is reproducible.
+"""
+
+from __future__ import annotations
+
+import zlib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from fallgen.audio.raytrace import decay_time, trace_decay
+from fallgen.audio.room import RirSettings, RoomAcoustics, omni_rir
+from fallgen.world.rooms import SHOEBOX_FACES
+
+
+@dataclass(frozen=True)
+class RoomReport:
+    variant: str
+    bands_hz: tuple[float, ...]
+    volume_m3: float  # the air's (furniture's volume taken out)
+    surface_m2: float  # exposed walls, floor, ceiling and furniture faces
+    furniture_parts: int
+    furniture_area_m2: float  # exposed furniture faces
+    absorption_area_m2: np.ndarray  # (B,) walls + furniture
+    furniture_absorption_m2: np.ndarray  # (B,)
+    mean_free_path_m: float
+    rt60_s: np.ndarray  # (B,) the renderer's (Arau-Puchades, furnished)
+    eyring_s: np.ndarray
+    sabine_s: np.ndarray
+    fitzroy_s: np.ndarray
+    bare_eyring_s: np.ndarray  # the same shoebox without furniture
+    t30_s: np.ndarray  # measured on the rendered response
+    raytrace_t30_s: np.ndarray | None
+    decay_db: np.ndarray  # (T, B) Schroeder curves of the rendered response
+    decay_t_s: np.ndarray  # (T,)
+
+    def as_dict(self) -> dict:
+        def f(a):
+            return None if a is None else [round(float(x), 4) for x in a]
+
+        return {
+            "variant": self.variant, "bands_hz": list(self.bands_hz),
+            "rt60_s": f(self.rt60_s), "t30_s": f(self.t30_s),
+            "raytrace_t30_s": f(self.raytrace_t30_s), "eyring_s": f(self.eyring_s),
+            "sabine_s": f(self.sabine_s), "fitzroy_s": f(self.fitzroy_s),
+            "bare_eyring_s": f(self.bare_eyring_s),
+            "volume_m3": round(self.volume_m3, 3), "surface_m2": round(self.surface_m2, 3),
+            "mean_free_path_m": round(self.mean_free_path_m, 4),
+            "furniture_parts": self.furniture_parts,
+            "furniture_area_m2": round(self.furniture_area_m2, 3),
+            "absorption_area_m2": f(self.absorption_area_m2),
+            "furniture_absorption_m2": f(self.furniture_absorption_m2),
+        }
+
+
+def _rng(variant_id: str, stream: int) -> np.random.Generator:
+    return np.random.default_rng(np.random.SeedSequence(zlib.crc32(variant_id.encode()),
+                                                        spawn_key=(stream,)))
+
+
+def room_report(variant, materials, raytrace: bool = False, length_s: float = 3.0,
+                n_rays: int = 1500) -> RoomReport:
+    """The acoustics of ``variant`` (a :class:`~fallgen.world.rooms.RoomVariant`)."""
+    room = RoomAcoustics.furnished(variant, materials)
+    model = room.furnished_model()
+    bare = RoomAcoustics.from_shoebox(variant.shoebox())
+    L = np.asarray(variant.size_m, float)
+    # a source low in the room, the listener at head height across it
+    src, lis = L * (0.3, 0.35, 0.0) + (0, 0, 0.5), L * (0.65, 0.6, 0.0) + (0, 0, 1.2)
+    fs = 44100
+    h = omni_rir(room, src, lis, _rng(variant.id, 0), RirSettings(sample_rate=fs,
+                                                                 length_s=length_s))
+    t_db, db = schroeder_bands(h, fs, room.bands_hz)
+    t30 = decay_time(t_db, db)
+    ray = None
+    if raytrace:
+        ws = np.array([variant.surfaces[k].scattering for k in SHOEBOX_FACES])
+        dec = trace_decay(variant.size_m, room.absorption, ws, room.furniture,
+                          np.asarray(room.air_absorption_per_m), _rng(variant.id, 1),
+                          n_rays=n_rays, t_max_s=length_s)
+        ray = dec.t30()
+    f = room.furniture
+    return RoomReport(
+        variant.id, tuple(room.bands_hz), model.volume_m3, model.surface_m2(), len(f.names),
+        float(f.exposed_area.sum()), model.absorption_area(), f.absorption_area(),
+        model.mean_free_path_m(), room.rt60(), model.rt60(), model.sabine_rt60(),
+        model.fitzroy_rt60(), bare.eyring_rt60(), t30, ray, db[::20], t_db[::20])
+
+
+def schroeder_bands(h: np.ndarray, fs: int, bands_hz) -> tuple[np.ndarray, np.ndarray]:
+    """Octave-band Schroeder decay curves (dB re their start) of an impulse response:
+    times (T,), curves (T, B). Fourth-order Butterworth octave bands, zero phase."""
+    from scipy.signal import butter, sosfiltfilt
+
+    out = []
+    for fc in bands_hz:
+        hi = min(fc * np.sqrt(2), 0.45 * fs)
+        sos = butter(4, [fc / np.sqrt(2), hi], "bandpass", fs=fs, output="sos")
+        y = sosfiltfilt(sos, h) ** 2
+        edc = np.cumsum(y[::-1])[::-1]
+        out.append(10 * np.log10(np.maximum(edc / edc[0], 1e-30)))
+    return np.arange(len(h)) / fs, np.stack(out, 1)
+
+
+def decay_png(path: str | Path, report: RoomReport, size: tuple[int, int] = (900, 520)
+              ) -> Path:
+    """The rendered response's decay curves per band (solid) and the slope of the renderer's
+    RT60 (dashed), 0 to -60 dB."""
+    import cv2
+
+    from fallgen.atomic import write_bytes
+
+    w, h = size
+    top, left, bottom, right = 50, 60, 40, 150
+    img = np.full((h, w, 3), 255, np.uint8)
+    t_max = float(report.decay_t_s[-1])
+    pw, ph = w - left - right, h - top - bottom
+
+    def xy(t, db):
+        x = left + np.clip(t / t_max, 0, 1) * pw
+        y = top + np.clip(-db / 60.0, 0, 1) * ph
+        return np.stack([x, y], -1).astype(np.int32)
+
+    for d in range(0, 61, 10):
+        y = int(top + d / 60 * ph)
+        cv2.line(img, (left, y), (left + pw, y), (225, 225, 225), 1)
+        cv2.putText(img, f"-{d}", (10, y + 4), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1)
+    for s in np.arange(0, t_max + 1e-9, 0.5):
+        x = int(left + s / t_max * pw)
+        cv2.line(img, (x, top), (x, top + ph), (225, 225, 225), 1)
+        cv2.putText(img, f"{s:.1f} s", (x - 12, h - 15), cv2.FONT_HERSHEY_SIMPLEX, 0.4,
+                    (0, 0, 0), 1)
+    colors = cv2.applyColorMap(np.linspace(0, 255, len(report.bands_hz)).astype(np.uint8)
+                               [:, None], cv2.COLORMAP_VIRIDIS)[:, 0]
+    for b, fc in enumerate(report.bands_hz):
+        c = tuple(int(x) for x in colors[b])
+        pts = xy(report.decay_t_s, report.decay_db[:, b])
+        cv2.polylines(img, [pts], False, c, 2, cv2.LINE_AA)
+        rt = float(report.rt60_s[b])
+        ts = np.linspace(0, min(rt, t_max), 30)
+        dash = xy(ts, -60 * ts / rt)
+        for i in range(0, len(dash) - 1, 2):
+            cv2.line(img, tuple(dash[i]), tuple(dash[i + 1]), c, 1, cv2.LINE_AA)
+        label = f"{fc / 1000:g}k" if fc >= 1000 else f"{fc:g}"
+        cv2.putText(img, f"{label} Hz: {rt:.2f} / {report.t30_s[b]:.2f} s",
+                    (w - right + 8, top + 18 * b + 10), cv2.FONT_HERSHEY_SIMPLEX, 0.4, c, 1,
+                    cv2.LINE_AA)
+    cv2.putText(img, f"{report.variant}: decay of the rendered response (dB) per octave band; "
+                f"dashed: model RT60 (model / T30)", (left, 30), cv2.FONT_HERSHEY_SIMPLEX, 0.45,
+                (0, 0, 0), 1, cv2.LINE_AA)
+    ok, enc = cv2.imencode(".png", img)
+    if not ok:
+        raise OSError(f"could not encode {path}")
+    return write_bytes(Path(path), enc.tobytes())

@@ -1,0 +1,233 @@
+"""The furnished room's acoustics: what the furniture adds to a shoebox.
+
+Every furniture part of a room variant (the room file's parts, nothing else) is an acoustic
+object: a box (a cylinder is taken as its bounding box's side and caps of its own area) whose
+exposed faces absorb with its material's octave-band ``absorption`` (materials/objects.toml).
+A face that rests on the floor or stands against a wall is not exposed, and it hides the floor
+or wall behind it.
+
+The late reverberation comes from the furnished room's total absorption and its mean free path:
+Eyring's formula over the furnished boundary, the room's exposed walls, floor and ceiling plus
+every exposed furniture face, of the furnished volume V' (the room less the parts' solid
+volume):
+
+    T_b = 0.161 V' / (-S' ln(1 - alpha'_b) + 4 m_b V'),   alpha'_b = A_b / S',  l = 4 V' / S'
+
+(Kuttruff, Room Acoustics, 6th ed. 2017, sec. 5.4 and 5.6, where furnishings are boundary of
+the sound field). Its error against an acoustic ray tracer through the same furnished geometry
+(:mod:`fallgen.audio.raytrace`) is measured by ``tests/audio/test_furnished.py`` and the
+README.
+
+The furniture also takes its share from the early reflections: a path of length r through the
+furnished room meets furniture surfaces at a rate S_f / (4 V') per metre, each taking alpha_f of
+the energy, which acts on the image sources (all but the direct sound) as a volume attenuation
+m_f = A_f / (4 V') per metre (Kuttruff sec. 5.6, "scattering obstacles as a volume effect"),
+so that the image sources and the late reverberation decay at the same rate where they meet.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from fallgen.world.materials import OCTAVE_BANDS_HZ, MaterialLibrary
+
+@dataclass(frozen=True)
+class Furnishing:
+    """The furniture of a room variant as the acoustics sees it: one row per part."""
+
+    names: tuple[str, ...]  # "<furniture id>/<part name>"
+    center: np.ndarray  # (P, 3) room frame, m
+    half: np.ndarray  # (P, 3) half sizes in the part's frame, m
+    yaw: np.ndarray  # (P,) rad about +z
+    absorption: np.ndarray  # (P, B)
+    scattering: np.ndarray  # (P,)
+    exposed_area: np.ndarray  # (P,) m^2 of faces open to the room
+    #: (P, 3) the same by the room axis the faces look along (x, y, z)
+    exposed_by_axis: np.ndarray
+    #: (6,) m^2 of each room face (SHOEBOX_FACES order) that parts rest on or stand against
+    covered: np.ndarray
+
+    @property
+    def volume_m3(self) -> float:
+        return float(np.prod(2 * self.half, axis=1).sum()) if len(self.names) else 0.0
+
+    def absorption_area(self) -> np.ndarray:
+        """(B,) equivalent absorption area of the exposed faces, m^2."""
+        return (self.exposed_area[:, None] * self.absorption).sum(0)
+
+    @staticmethod
+    def empty(bands: int = len(OCTAVE_BANDS_HZ)) -> Furnishing:
+        z = np.zeros((0, 3))
+        return Furnishing((), z, z, np.zeros(0), np.zeros((0, bands)), np.zeros(0), np.zeros(0),
+                          z, np.zeros(6))
+
+
+def furnishing(variant, materials: MaterialLibrary, samples: int = 8) -> Furnishing:
+    """The acoustic furniture of ``variant`` (a :class:`fallgen.world.rooms.RoomVariant`).
+
+    A face's exposed share is measured on a ``samples`` x ``samples`` grid of points 1 cm in
+    front of it: a point inside another part (a sofa's seat against its back, books on a
+    board) or beyond a room face (a cabinet's back on the wall, a foot on the floor) is
+    covered, and the latter covers that much of the room face."""
+    lx, ly, lz = variant.size_m
+    L = np.array([lx, ly, lz])
+    rows = [(item, part) for item, part in variant.parts()]
+    if not rows:
+        return Furnishing.empty()
+    center = np.array([p.box.center for _, p in rows], float)
+    half = np.array([p.box.half for _, p in rows], float)
+    yaw = np.array([p.box.yaw for _, p in rows], float)
+    cy, sy = np.cos(yaw), np.sin(yaw)
+    g = (np.arange(samples) + 0.5) / samples * 2 - 1  # face grid in [-1, 1]
+    u, w = [a.ravel() for a in np.meshgrid(g, g, indexing="ij")]
+    covered = np.zeros(6)
+    areas, by_axis = [], []
+    for k, (item, part) in enumerate(rows):
+        h = half[k]
+        if part.shape == "cylinder":
+            r = h[0]
+            side = 2 * math.pi * r * 2 * h[2]
+            face = np.array([side / 4] * 4 + [math.pi * r * r] * 2)
+        else:
+            face = np.array([4 * h[1] * h[2]] * 2 + [4 * h[0] * h[2]] * 2
+                            + [4 * h[0] * h[1]] * 2)
+        open_area = np.zeros(6)
+        for fi in range(6):
+            ax, sign = fi // 2, (1.0 if fi % 2 == 0 else -1.0)
+            if fi >= 4:  # bottom (4), top (5)
+                ax, sign = 2, (-1.0 if fi == 4 else 1.0)
+            o = [a for a in range(3) if a != ax]
+            local = np.zeros((len(u), 3))
+            local[:, ax] = sign * (h[ax] + 0.01)
+            local[:, o[0]] = u * h[o[0]]
+            local[:, o[1]] = w * h[o[1]]
+            pts = center[k] + np.stack([cy[k] * local[:, 0] - sy[k] * local[:, 1],
+                                        sy[k] * local[:, 0] + cy[k] * local[:, 1],
+                                        local[:, 2]], 1)
+            out_lo, out_hi = pts < 0, pts > L
+            outside = (out_lo | out_hi).any(1)
+            inside = _inside_any(pts, center, half, cy, sy, skip=k)
+            free = ~outside & ~inside
+            open_area[fi] = face[fi] * free.mean()
+            # the room faces this face rests on or stands against (SHOEBOX_FACES order)
+            per_point = face[fi] / len(pts)
+            for a in range(3):
+                covered[2 * a] += per_point * out_lo[:, a].sum()
+                covered[2 * a + 1] += per_point * out_hi[:, a].sum()
+        areas.append(float(open_area.sum()))
+        fx = _faces_x(yaw[k], 0)  # the part's x faces look along the room's x
+        by_axis.append((open_area[:2].sum() if fx else open_area[2:4].sum(),
+                        open_area[2:4].sum() if fx else open_area[:2].sum(),
+                        open_area[4:].sum()))
+    mats = [materials.object(p.material) for _, p in rows]
+    return Furnishing(tuple(f"{i.id}/{p.name}" for i, p in rows), center, half, yaw,
+                      np.array([m.absorption for m in mats], float),
+                      np.array([m.scattering for m in mats], float), np.array(areas),
+                      np.array(by_axis, float), covered)
+
+
+def _inside_any(pts: np.ndarray, center: np.ndarray, half: np.ndarray, cy: np.ndarray,
+                sy: np.ndarray, skip: int) -> np.ndarray:
+    """Whether each point lies inside a part other than ``skip``."""
+    rel = pts[:, None, :] - center[None]
+    x = cy * rel[..., 0] + sy * rel[..., 1]
+    y = -sy * rel[..., 0] + cy * rel[..., 1]
+    inside = ((np.abs(x) < half[:, 0]) & (np.abs(y) < half[:, 1])
+              & (np.abs(rel[..., 2]) < half[:, 2]))
+    inside[:, skip] = False
+    return inside.any(1)
+
+
+def _faces_x(yaw: float, axis: int) -> bool:
+    """Whether the part's local x axis is (about) along the room's ``axis``: then its +-x
+    faces face that way."""
+    c, s = abs(math.cos(yaw)), abs(math.sin(yaw))
+    return (c >= s) if axis == 0 else (s > c)
+
+
+@dataclass(frozen=True)
+class FurnishedAcoustics:
+    """A shoebox's faces and its furniture: absorption areas, volume and mean free path,
+    and the reverberation time they give."""
+
+    size_m: tuple[float, float, float]
+    wall_absorption: np.ndarray  # (6, B)
+    furniture: Furnishing
+    air_absorption_per_m: np.ndarray  # (B,)
+
+    @property
+    def volume_m3(self) -> float:
+        """The furnished (free) volume: the room less the parts' solid volume."""
+        return float(np.prod(self.size_m)) - self.furniture.volume_m3
+
+    def wall_areas(self) -> np.ndarray:
+        """(6,) exposed area of each room face."""
+        lx, ly, lz = self.size_m
+        full = np.array([ly * lz, ly * lz, lx * lz, lx * lz, lx * ly, lx * ly])
+        return np.maximum(full - self.furniture.covered, 0.0)
+
+    def surface_m2(self) -> float:
+        return float(self.wall_areas().sum() + self.furniture.exposed_area.sum())
+
+    def absorption_area(self) -> np.ndarray:
+        """(B,) m^2: exposed walls plus exposed furniture faces (air not included)."""
+        return self.wall_areas() @ self.wall_absorption + self.furniture.absorption_area()
+
+    def mean_free_path_m(self) -> float:
+        return 4 * self.volume_m3 / self.surface_m2()
+
+    def rt60(self) -> np.ndarray:
+        """(B,) Eyring's reverberation time of the furnished boundary and volume, s."""
+        v, s = self.volume_m3, self.surface_m2()
+        a = np.minimum(self.absorption_area() / s, 0.999999)
+        return 0.161 * v / (-s * np.log1p(-a) + 4 * self.air_absorption_per_m * v)
+
+    def arau_rt60(self) -> np.ndarray:
+        """(B,) Arau-Puchades' reverberation time (Acustica 65, 1988): Eyring's for each pair
+        of opposite faces (x, y, z; furniture faces by the axis they look along), weighted
+        geometrically by their areas, T = prod_i T_i^(S_i / S). For absorption concentrated
+        on one pair (a carpeted floor under hard walls)."""
+        v = self.volume_m3
+        w = self.wall_areas()
+        f = self.furniture
+        s_i = np.array([w[0] + w[1], w[2] + w[3], w[4] + w[5]]) + f.exposed_by_axis.sum(0)
+        a_i = np.stack([w[2 * i:2 * i + 2] @ self.wall_absorption[2 * i:2 * i + 2]
+                        for i in range(3)]) + f.exposed_by_axis.T @ f.absorption  # (3, B)
+        s = s_i.sum()
+        t = 1.0
+        for i in range(3):
+            al = np.minimum(a_i[i] / s_i[i], 0.999999)
+            ti = 0.161 * v / (-s * np.log1p(-al) + 4 * self.air_absorption_per_m * v)
+            t = t * ti ** (s_i[i] / s)
+        return t
+
+    def fitzroy_rt60(self) -> np.ndarray:
+        """(B,) Fitzroy's (JASA 31, 1959): the three pairs' Eyring terms averaged by area,
+        T = 0.161 V / S^2 sum_i S_i / (-ln(1 - alpha_i) + 4 m V / S)."""
+        v = self.volume_m3
+        w = self.wall_areas()
+        f = self.furniture
+        s_i = np.array([w[0] + w[1], w[2] + w[3], w[4] + w[5]]) + f.exposed_by_axis.sum(0)
+        a_i = np.stack([w[2 * i:2 * i + 2] @ self.wall_absorption[2 * i:2 * i + 2]
+                        for i in range(3)]) + f.exposed_by_axis.T @ f.absorption
+        s = s_i.sum()
+        m = 4 * self.air_absorption_per_m * v / s
+        return 0.161 * v / s ** 2 * sum(
+            s_i[i] / (-np.log1p(-np.minimum(a_i[i] / s_i[i], 0.999999)) + m) for i in range(3))
+
+    def sabine_rt60(self) -> np.ndarray:
+        v = self.volume_m3
+        return 0.161 * v / (self.absorption_area() + 4 * self.air_absorption_per_m * v)
+
+    def volume_attenuation_per_m(self) -> np.ndarray:
+        """(B,) the furniture's take from a reflected path, per metre of it (intensity):
+        -ln(1 - alpha_f) S_f / (4 V'), the rate at which a diffuse field's paths meet furniture
+        faces times the energy each meeting takes."""
+        f = self.furniture
+        if not len(f.names):
+            return np.zeros_like(self.air_absorption_per_m)
+        take = -(f.exposed_area[:, None] * np.log1p(-np.minimum(f.absorption, 0.999))).sum(0)
+        return take / (4 * self.volume_m3)

@@ -1,0 +1,162 @@
+"""The furnished room's acoustics (audio.furnished) and its reference, the ray tracer
+(audio.raytrace): exposed furniture faces, absorption, the reverberation time against Eyring in
+uniform rooms and against traced rays where absorption is uneven, what a rendered response
+measures, and the 64 variants' rooms."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fallgen.audio.furnished import FurnishedAcoustics, Furnishing, furnishing
+from fallgen.audio.raytrace import decay_time, trace_decay
+from fallgen.audio.room import RirSettings, RoomAcoustics, arrivals, omni_rir
+from fallgen.world.furniture import Part
+from fallgen.world.geometry import Box
+
+NO_AIR = np.zeros(7)
+
+
+def test_ray_tracer_is_eyring_in_a_uniform_diffuse_room():
+    """Rays in a shoebox of uniform absorption with diffuse (Lambert) reflections decay as
+    Eyring's formula says (Kuttruff, Room Acoustics, 5.4: exact for a diffuse field): within
+    10 % for alpha 0.05 and 0.3, air absorption included."""
+    size = (6.0, 4.0, 3.0)
+    for alpha in (0.05, 0.3):
+        wa = np.full((6, 7), alpha)
+        room = RoomAcoustics(size, wa)
+        dec = trace_decay(size, wa, np.ones(6), Furnishing.empty(),
+                          np.asarray(room.air_absorption_per_m), np.random.default_rng(1),
+                          n_rays=800, t_max_s=3.0 if alpha < 0.1 else 1.0)
+        got, want = dec.t30()[[0, 3, 6]], room.eyring_rt60()[[0, 3, 6]]
+        np.testing.assert_allclose(got, want, rtol=0.10, err_msg=str(alpha))
+
+
+def test_uneven_absorption_needs_arau_puchades():
+    """A room whose absorption is all on its floor (a carpet under hard walls) and whose
+    walls reflect mostly specularly rings longer than Eyring says: the traced rays' T30 is
+    within 20 % of Arau-Puchades' formula (the renderer's) and more than 30 % above Eyring's;
+    with diffuse walls the field is diffuse again and Eyring holds (10 %)."""
+    size = (6.0, 4.0, 3.0)
+    wa = np.full((6, 7), 0.03)
+    wa[4] = 0.6
+    model = FurnishedAcoustics(size, wa, Furnishing.empty(), NO_AIR)
+    specular = trace_decay(size, wa, np.full(6, 0.1), Furnishing.empty(), NO_AIR,
+                           np.random.default_rng(0), n_rays=800, t_max_s=2.5).t30()[0]
+    diffuse = trace_decay(size, wa, np.ones(6), Furnishing.empty(), NO_AIR,
+                          np.random.default_rng(0), n_rays=800, t_max_s=1.5).t30()[0]
+    assert specular == pytest.approx(model.arau_rt60()[0], rel=0.2)
+    assert specular > 1.3 * model.rt60()[0]
+    assert diffuse == pytest.approx(model.rt60()[0], rel=0.1)
+
+
+def _variant_with(parts, size=(5.0, 4.0, 2.6)):
+    """A stand-in for a RoomVariant: its size and (item, part) pairs."""
+
+    class Item:
+        id = "item"
+
+    class V:
+        size_m = size
+        id = "test"
+
+        @staticmethod
+        def parts():
+            return [(Item, p) for p in parts]
+
+    return V
+
+
+def test_exposed_faces(world):
+    """A cabinet against the west wall on the floor shows four of its six faces, and hides as
+    much floor and wall; a box standing on it hides the cabinet's top where it stands (and
+    its own bottom), and the air's volume is the room's less both."""
+    cab = Part("cab", "box", Box.from_bounds((0.0, 1.0, 0.0), (0.6, 2.0, 0.9)), "wood_medium")
+    top = Part("box", "box", Box.from_bounds((0.1, 1.2, 0.9), (0.5, 1.6, 1.2)), "cardboard")
+    f = furnishing(_variant_with([cab]), world.materials)
+    faces = 2 * (1.0 * 0.9) + 2 * (0.6 * 0.9) + 2 * (0.6 * 1.0)
+    assert f.exposed_area[0] == pytest.approx(faces - 0.6 * 1.0 - 1.0 * 0.9, rel=1e-6)
+    assert f.covered[4] == pytest.approx(0.6, rel=1e-6)  # floor under it
+    assert f.covered[0] == pytest.approx(0.9, rel=1e-6)  # west wall behind it
+    assert f.covered[[1, 2, 3, 5]].sum() == 0
+    both = furnishing(_variant_with([cab, top]), world.materials)
+    assert both.exposed_area[0] == pytest.approx(f.exposed_area[0] - 0.4 * 0.4, rel=0.05)
+    box_faces = 2 * 0.4 * 0.3 * 2 + 2 * 0.4 * 0.4
+    assert both.exposed_area[1] == pytest.approx(box_faces - 0.16, rel=0.05)
+    model = FurnishedAcoustics((5.0, 4.0, 2.6), np.full((6, 7), 0.05), both, NO_AIR)
+    assert model.volume_m3 == pytest.approx(5 * 4 * 2.6 - 0.54 - 0.048, rel=1e-9)
+    # its wood absorbs: the furnished room's absorption area is the walls' exposed share
+    # plus the furniture's
+    bare = 2 * (5 * 2.6 + 4 * 2.6 + 5 * 4) * 0.05
+    want = bare - 0.05 * both.covered.sum() + both.absorption_area()
+    np.testing.assert_allclose(model.absorption_area(), want, rtol=1e-9)
+
+
+def test_furniture_in_a_ray_traced_room():
+    """An absorbing cube (alpha 0.8) in a room of diffuse walls: the traced T30 is Eyring's
+    over the furnished boundary within 10 % (the ray tracer sees the part's faces)."""
+    size = (5.0, 4.0, 3.0)
+    wa = np.full((6, 7), 0.05)
+    cube = Furnishing(("cube",), np.array([[2.5, 2.0, 1.0]]), np.array([[0.5, 0.5, 0.5]]),
+                      np.array([0.3]), np.full((1, 7), 0.8), np.array([1.0]),
+                      np.array([6.0]), np.array([[2.0, 2.0, 2.0]]), np.zeros(6))
+    model = FurnishedAcoustics(size, wa, cube, NO_AIR)
+    dec = trace_decay(size, wa, np.ones(6), cube, NO_AIR, np.random.default_rng(2),
+                      n_rays=800, t_max_s=2.0)
+    assert dec.t30()[0] == pytest.approx(model.rt60()[0], rel=0.1)
+    empty = FurnishedAcoustics(size, wa, Furnishing.empty(), NO_AIR)
+    assert model.rt60()[0] < 0.75 * empty.rt60()[0]
+
+
+def test_rendered_response_decays_at_the_furnished_rt60(world):
+    """The response the episodes are rendered with (image sources, then the late reverb)
+    decays in every octave band at the furnished room's RT60 (T30 within 15 %), shorter than
+    the bare room's; its reflections lose the furniture's share, its direct sound does not."""
+    from fallgen.audio.acoustics import schroeder_bands
+
+    v = world.variant("kitchen_galley-l1-m1")
+    room = RoomAcoustics.furnished(v, world.materials)
+    bare = RoomAcoustics.from_shoebox(v.shoebox())
+    fs = 44100
+    h = omni_rir(room, (1.0, 1.2, 0.5), (3.0, 2.0, 1.2), np.random.default_rng(0),
+                 RirSettings(length_s=3.0))
+    t, db = schroeder_bands(h, fs, room.bands_hz)
+    np.testing.assert_allclose(decay_time(t, db), room.rt60(), rtol=0.15)
+    assert np.all(room.rt60()[1:5] < 0.8 * bare.eyring_rt60()[1:5])
+    a_f = arrivals(room, (1.0, 1.2, 0.5), (3.0, 2.0, 1.2), 2)
+    a_b = arrivals(bare, (1.0, 1.2, 0.5), (3.0, 2.0, 1.2), 2)
+    direct = np.argmin(a_b.delay_s)
+    np.testing.assert_allclose(a_f.amplitude[direct], a_b.amplitude[direct])
+    later = np.arange(len(a_b.delay_s)) != direct
+    assert np.all(a_f.amplitude[later] < a_b.amplitude[later])
+
+
+def test_every_variant_is_furnished(world):
+    """Over the 64 variants: furniture always shortens the mid-frequency reverberation, the
+    four layouts of a room never all share one RT60 (their furniture differs), and the mean
+    free path is that of a furnished room of a home (1-3 m)."""
+    mids: dict[str, list[float]] = {}
+    for v in world.variants():
+        room = RoomAcoustics.furnished(v, world.materials)
+        model = room.furnished_model()
+        bare = FurnishedAcoustics(v.size_m, room.absorption, Furnishing.empty(),
+                                  room.air_absorption_per_m)
+        assert np.all(room.rt60()[2:4] < bare.arau_rt60()[2:4]), v.id
+        assert 1.0 < model.mean_free_path_m() < 3.0, v.id
+        assert room.furniture.exposed_area.sum() > 10, v.id
+        mids.setdefault(f"{v.room}-{v.material_set}", []).append(float(room.rt60()[2:4].mean()))
+    for key, rts in mids.items():
+        assert len(rts) == 4 and max(rts) - min(rts) > 0.005, (key, rts)
+
+
+def test_ray_tracer_is_reproducible():
+    size = (4.0, 3.0, 2.5)
+    wa = np.full((6, 7), 0.1)
+    a = trace_decay(size, wa, np.full(6, 0.3), Furnishing.empty(), NO_AIR,
+                    np.random.default_rng(5), n_rays=100, t_max_s=0.3)
+    b = trace_decay(size, wa, np.full(6, 0.3), Furnishing.empty(), NO_AIR,
+                    np.random.default_rng(5), n_rays=100, t_max_s=0.3)
+    np.testing.assert_array_equal(a.energy, b.energy)
+    assert math.isclose(float(a.energy[0, 0]), 1.0)
