@@ -113,7 +113,8 @@ def test_furniture_in_a_ray_traced_room():
 def test_rendered_response_decays_at_the_furnished_rt60(world):
     """The response the episodes are rendered with (image sources, then the late reverb)
     decays in every octave band at the furnished room's RT60 (T30 within 15 %), shorter than
-    the bare room's; its reflections lose the furniture's share, its direct sound does not."""
+    the bare room's; its reflections lose the furniture's share (its direct sound only what
+    parts in its way take: tests/audio/test_occlusion.py)."""
     from fallgen.audio.acoustics import schroeder_bands
 
     v = world.variant("kitchen_galley-l1-m1")
@@ -127,10 +128,11 @@ def test_rendered_response_decays_at_the_furnished_rt60(world):
     assert np.all(room.rt60()[1:5] < 0.8 * bare.eyring_rt60()[1:5])
     a_f = arrivals(room, (1.0, 1.2, 0.5), (3.0, 2.0, 1.2), 2)
     a_b = arrivals(bare, (1.0, 1.2, 0.5), (3.0, 2.0, 1.2), 2)
+    n = len(a_b.delay_s)  # the walls' images first, in the same order; then the furniture's
     direct = np.argmin(a_b.delay_s)
-    np.testing.assert_allclose(a_f.amplitude[direct], a_b.amplitude[direct])
-    later = np.arange(len(a_b.delay_s)) != direct
-    assert np.all(a_f.amplitude[later] < a_b.amplitude[later])
+    assert np.all(a_f.amplitude[direct] <= a_b.amplitude[direct] + 1e-12)
+    later = np.arange(n) != direct
+    assert np.all(a_f.amplitude[:n][later] < a_b.amplitude[later])
 
 
 def test_every_variant_is_furnished(world):

@@ -7,16 +7,22 @@ A face that rests on the floor or stands against a wall is not exposed, and it h
 or wall behind it.
 
 The late reverberation comes from the furnished room's total absorption and its mean free path:
-Eyring's formula over the furnished boundary, the room's exposed walls, floor and ceiling plus
-every exposed furniture face, of the furnished volume V' (the room less the parts' solid
-volume):
-
-    T_b = 0.161 V' / (-S' ln(1 - alpha'_b) + 4 m_b V'),   alpha'_b = A_b / S',  l = 4 V' / S'
-
-(Kuttruff, Room Acoustics, 6th ed. 2017, sec. 5.4 and 5.6, where furnishings are boundary of
-the sound field). Its error against an acoustic ray tracer through the same furnished geometry
-(:mod:`fallgen.audio.raytrace`) is measured by ``tests/audio/test_furnished.py`` and the
-README.
+the air's volume V' (the room less the parts' solid volume) and the furnished boundary S' (the
+room's exposed walls, floor and ceiling plus every exposed furniture face), l = 4 V' / S'. The
+renderer's reverberation time is Arau-Puchades' formula over that boundary (Acustica 65, 1988;
+:meth:`FurnishedAcoustics.arau_rt60`): Eyring's for each pair of opposite faces (furniture
+faces by the axis they look along), weighted geometrically by their areas. Chosen over
+Eyring's over S' (:meth:`FurnishedAcoustics.rt60`; Kuttruff, Room Acoustics, 6th ed. 2017,
+sec. 5.4) because home rooms put their absorption on one pair (a carpet or rug, upholstery low
+down) under hard walls that reflect mostly specularly: there the energy left between the walls
+decays more slowly than a diffuse field's. Measured against the ray tracer
+(:mod:`fallgen.audio.raytrace`; tests/audio/test_furnished.py): a room absorbing only on its floor
+with walls of scattering 0.1, rays 1.00 s, Arau 1.15 s, Eyring 0.63 s, Fitzroy 2.08 s; with
+diffuse walls rays 0.60 s and Eyring 0.63 s. In the furnished variants the ray tracer, with the
+surfaces' own scattering coefficients (0.05-0.1), gives 15-70 % longer times than Arau (furniture
+faces near walls and the floor are met less often than a diffuse field would meet them); with
+diffuse walls it is within ~25 %. Real rooms' clutter (objects, pictures, doors) scatters more than
+flat walls: the difference is the model's documented uncertainty.
 
 The furniture also takes its share from the early reflections: a path of length r through the
 furnished room meets furniture surfaces at a rate S_f / (4 V') per metre, each taking alpha_f of
@@ -34,6 +40,7 @@ import numpy as np
 
 from fallgen.world.materials import OCTAVE_BANDS_HZ, MaterialLibrary
 
+
 @dataclass(frozen=True)
 class Furnishing:
     """The furniture of a room variant as the acoustics sees it: one row per part."""
@@ -49,6 +56,8 @@ class Furnishing:
     exposed_by_axis: np.ndarray
     #: (6,) m^2 of each room face (SHOEBOX_FACES order) that parts rest on or stand against
     covered: np.ndarray
+    #: (P, 6) the open share of each face (+x, -x, +y, -y in the part's frame, bottom, top)
+    face_open: np.ndarray | None = None
 
     @property
     def volume_m3(self) -> float:
@@ -84,7 +93,7 @@ def furnishing(variant, materials: MaterialLibrary, samples: int = 8) -> Furnish
     g = (np.arange(samples) + 0.5) / samples * 2 - 1  # face grid in [-1, 1]
     u, w = [a.ravel() for a in np.meshgrid(g, g, indexing="ij")]
     covered = np.zeros(6)
-    areas, by_axis = [], []
+    areas, by_axis, shares = [], [], []
     for k, (item, part) in enumerate(rows):
         h = half[k]
         if part.shape == "cylinder":
@@ -94,7 +103,7 @@ def furnishing(variant, materials: MaterialLibrary, samples: int = 8) -> Furnish
         else:
             face = np.array([4 * h[1] * h[2]] * 2 + [4 * h[0] * h[2]] * 2
                             + [4 * h[0] * h[1]] * 2)
-        open_area = np.zeros(6)
+        open_area, share = np.zeros(6), np.zeros(6)
         for fi in range(6):
             ax, sign = fi // 2, (1.0 if fi % 2 == 0 else -1.0)
             if fi >= 4:  # bottom (4), top (5)
@@ -112,12 +121,14 @@ def furnishing(variant, materials: MaterialLibrary, samples: int = 8) -> Furnish
             inside = _inside_any(pts, center, half, cy, sy, skip=k)
             free = ~outside & ~inside
             open_area[fi] = face[fi] * free.mean()
+            share[fi] = free.mean()
             # the room faces this face rests on or stands against (SHOEBOX_FACES order)
             per_point = face[fi] / len(pts)
             for a in range(3):
                 covered[2 * a] += per_point * out_lo[:, a].sum()
                 covered[2 * a + 1] += per_point * out_hi[:, a].sum()
         areas.append(float(open_area.sum()))
+        shares.append(share)
         fx = _faces_x(yaw[k], 0)  # the part's x faces look along the room's x
         by_axis.append((open_area[:2].sum() if fx else open_area[2:4].sum(),
                         open_area[2:4].sum() if fx else open_area[:2].sum(),
@@ -126,7 +137,7 @@ def furnishing(variant, materials: MaterialLibrary, samples: int = 8) -> Furnish
     return Furnishing(tuple(f"{i.id}/{p.name}" for i, p in rows), center, half, yaw,
                       np.array([m.absorption for m in mats], float),
                       np.array([m.scattering for m in mats], float), np.array(areas),
-                      np.array(by_axis, float), covered)
+                      np.array(by_axis, float), covered, np.array(shares))
 
 
 def _inside_any(pts: np.ndarray, center: np.ndarray, half: np.ndarray, cy: np.ndarray,
@@ -180,7 +191,8 @@ class FurnishedAcoustics:
         return 4 * self.volume_m3 / self.surface_m2()
 
     def rt60(self) -> np.ndarray:
-        """(B,) Eyring's reverberation time of the furnished boundary and volume, s."""
+        """(B,) Eyring's reverberation time of the furnished boundary and volume, s (the
+        renderer uses :meth:`arau_rt60`)."""
         v, s = self.volume_m3, self.surface_m2()
         a = np.minimum(self.absorption_area() / s, 0.999999)
         return 0.161 * v / (-s * np.log1p(-a) + 4 * self.air_absorption_per_m * v)

@@ -33,6 +33,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fallgen.audio.furnished import FurnishedAcoustics, Furnishing, furnishing
+from fallgen.audio.occlusion import path_gains
+from fallgen.audio.reflections import furniture_images
 from fallgen.world.materials import OCTAVE_BANDS_HZ
 from fallgen.world.rooms import SHOEBOX_FACES, Shoebox
 
@@ -188,7 +190,7 @@ class Arrivals:
 
 def arrivals(room: RoomAcoustics, source, listener, max_order: int,
              until_s: float | None = None) -> Arrivals:
-    return _arrivals(room, image_sources(room, source, max_order), listener, until_s)
+    return _arrivals(room, image_sources(room, source, max_order), listener, until_s, source)
 
 
 def early_arrivals(room: RoomAcoustics, source, listener, max_order: int
@@ -200,17 +202,38 @@ def early_arrivals(room: RoomAcoustics, source, listener, max_order: int
     d = np.linalg.norm(im.positions[nxt] - np.asarray(listener, float), axis=1)
     t_c = float(d.min()) / room.c
     early = ImageSources(im.positions[~nxt], im.gains[~nxt], im.order[~nxt])
-    return _arrivals(room, early, listener, t_c), t_c
+    return _arrivals(room, early, listener, t_c, source), t_c
 
 
-def _arrivals(room: RoomAcoustics, im: ImageSources, listener, until_s: float | None
-              ) -> Arrivals:
-    v = im.positions - np.asarray(listener, float)
+#: A source on a surface (a fall's contact) is lifted this much off it before the furniture's
+#: occlusion is traced, so that the part it rests on stands in the way of paths through it.
+SOURCE_LIFT_M = 0.015
+
+
+def _arrivals(room: RoomAcoustics, im: ImageSources, listener, until_s: float | None,
+              source=None) -> Arrivals:
+    """The arrivals of the images ``im`` at ``listener``. In a furnished room (and with the
+    ``source`` the images are of) the reflections lose the furniture's statistical share, the
+    direct sound and the first reflections bend around parts in their way
+    (:mod:`fallgen.audio.occlusion`), and the furniture's large faces add their own first
+    reflections (:mod:`fallgen.audio.reflections`)."""
+    lis = np.asarray(listener, float)
+    pos, gains, order = im.positions, im.gains, im.order
+    if room.furniture is not None and source is not None:
+        lifted = np.asarray(source, float) + (0.0, 0.0, SOURCE_LIFT_M)
+        gains = gains * path_gains(lifted, lis, pos, order, room.size_m, room.furniture,
+                                   room.bands_hz, room.c)
+        f_pos, f_gains = furniture_images(lifted, lis, room.furniture, room.size_m,
+                                          room.bands_hz, room.c)
+        pos = np.concatenate([pos, f_pos])
+        gains = np.concatenate([gains, f_gains])
+        order = np.concatenate([order, np.ones(len(f_pos), order.dtype)])
+    v = pos - lis
     r = np.maximum(np.linalg.norm(v, axis=1), 1e-3)
-    amp = im.gains / r[:, None] * np.exp(-0.5 * np.outer(r, room.air_absorption_per_m))
+    amp = gains / r[:, None] * np.exp(-0.5 * np.outer(r, room.air_absorption_per_m))
     if room.furniture is not None:  # the furniture's take from the reflected paths
         extra = room.image_attenuation_per_m() - np.asarray(room.air_absorption_per_m, float)
-        amp = amp * np.where((im.order > 0)[:, None], np.exp(-0.5 * np.outer(r, extra)), 1.0)
+        amp = amp * np.where((order > 0)[:, None], np.exp(-0.5 * np.outer(r, extra)), 1.0)
     t = r / room.c
     keep = np.ones(len(t), bool) if until_s is None else t < until_s
     return Arrivals(t[keep], amp[keep], (v / r[:, None])[keep])
