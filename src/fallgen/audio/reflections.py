@@ -82,7 +82,8 @@ def furniture_images(source, listener, f: Furnishing, size_m, bands_hz,
         g = np.sqrt(1.0 - f.absorption[k])
         for w in (2 * hu, 2 * hv):  # finite size: -6 dB per octave below f_g
             f_g = c * a_star / (2 * (w * cos_t) ** 2)
-            g = g * np.minimum(1.0, bands / f_g)
+            if f_g > 0:  # (0: a source on the face, all of it reflected)
+                g = g * np.minimum(1.0, bands / f_g)
         legs_a = np.array([s + 0.0 * n, q])
         legs_b = np.array([q, lis])
         att = leg_attenuation_db(legs_a, legs_b, f, bands, c, size_m).sum(0)
