@@ -86,11 +86,11 @@ def _schroeder_t30(h):
 @pytest.mark.parametrize("alpha", [0.1, 0.25, 0.5])
 def test_rt60_agrees_with_eyring(alpha):
     """Uniform absorption, no air: the Schroeder T30 of the rendered response (image sources
-    and late reverb) is within 20 % of Eyring."""
+    and late reverb) is within 10 % of Eyring."""
     room = _uniform(alpha)
     h = omni_rir(room, SRC, MIC, np.random.default_rng(0), RirSettings(length_s=2.0))
     t30 = _schroeder_t30(h)
-    assert t30 == pytest.approx(room.eyring_rt60()[3], rel=0.2), (t30, room.eyring_rt60()[3])
+    assert t30 == pytest.approx(room.eyring_rt60()[3], rel=0.1), (t30, room.eyring_rt60()[3])
 
 
 def test_late_reverb_joins_without_a_jump():

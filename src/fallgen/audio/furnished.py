@@ -118,7 +118,7 @@ def furnishing(variant, materials: MaterialLibrary, samples: int = 8) -> Furnish
                                         local[:, 2]], 1)
             out_lo, out_hi = pts < 0, pts > L
             outside = (out_lo | out_hi).any(1)
-            inside = _inside_any(pts, center, half, cy, sy, skip=k)
+            inside = _inside_any(pts, center, half, yaw, skip=k)
             free = ~outside & ~inside
             open_area[fi] = face[fi] * free.mean()
             share[fi] = free.mean()
@@ -140,14 +140,43 @@ def furnishing(variant, materials: MaterialLibrary, samples: int = 8) -> Furnish
                       np.array(by_axis, float), covered, np.array(shares))
 
 
-def _inside_any(pts: np.ndarray, center: np.ndarray, half: np.ndarray, cy: np.ndarray,
-                sy: np.ndarray, skip: int) -> np.ndarray:
+def in_part_frames(rel: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    """(N, P, 3) room-frame vectors (one per point and part) in the parts' frames (each
+    rotated by -yaw_p about z)."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.stack([c * rel[..., 0] + s * rel[..., 1], -s * rel[..., 0] + c * rel[..., 1],
+                     rel[..., 2]], -1)
+
+
+def inside_parts(pts: np.ndarray, center: np.ndarray, half: np.ndarray, yaw: np.ndarray,
+                 grow: float = 0.0) -> np.ndarray:
+    """(N, P) whether each point lies inside each part (grown by ``grow``)."""
+    local = in_part_frames(pts[:, None, :] - center[None], yaw)
+    return (np.abs(local) < half[None] + grow).all(-1)
+
+
+def slab_hits(p: np.ndarray, d: np.ndarray, center: np.ndarray, half: np.ndarray,
+              yaw: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Where the lines p[i] + t d[i] enter and leave each part: t_in, t_out (N, P; t_in >
+    t_out: they miss it), the entry's per-axis parameters (N, P, 3) and d in the parts'
+    frames (N, P, 3). A line parallel to a pair of faces is inside that slab or never."""
+    lp = in_part_frames(p[:, None, :] - center[None], yaw)
+    ld = in_part_frames(np.broadcast_to(d[:, None, :], lp.shape), yaw)
+    h = half[None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t1 = (-h - lp) / ld
+        t2 = (h - lp) / ld
+    flat = ld == 0
+    inside = np.abs(lp) <= h
+    lo = np.where(flat, np.where(inside, -np.inf, np.inf), np.minimum(t1, t2))
+    hi = np.where(flat, np.where(inside, np.inf, -np.inf), np.maximum(t1, t2))
+    return lo.max(-1), hi.min(-1), lo, ld
+
+
+def _inside_any(pts: np.ndarray, center: np.ndarray, half: np.ndarray, yaw: np.ndarray,
+                skip: int) -> np.ndarray:
     """Whether each point lies inside a part other than ``skip``."""
-    rel = pts[:, None, :] - center[None]
-    x = cy * rel[..., 0] + sy * rel[..., 1]
-    y = -sy * rel[..., 0] + cy * rel[..., 1]
-    inside = ((np.abs(x) < half[:, 0]) & (np.abs(y) < half[:, 1])
-              & (np.abs(rel[..., 2]) < half[:, 2]))
+    inside = inside_parts(pts, center, half, yaw)
     inside[:, skip] = False
     return inside.any(1)
 

@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from fallgen.audio.furnished import Furnishing
+from fallgen.audio.furnished import Furnishing, slab_hits
 
 #: Above this the other paths of the room carry the sound (Maekawa's data reach ~24 dB).
 MAX_ATTENUATION_DB = 24.0
@@ -42,26 +42,7 @@ def crossings(a: np.ndarray, b: np.ndarray, f: Furnishing, margin: float = 1e-6
               ) -> np.ndarray:
     """(N, P) whether the segment a[i] -> b[i] passes through part p (an end inside a part
     counts as passing through only where the segment enters it past the end)."""
-    d = b - a
-    cy, sy = np.cos(f.yaw), np.sin(f.yaw)
-    rel = a[:, None, :] - f.center[None]
-    lp = np.stack([cy * rel[..., 0] + sy * rel[..., 1], -sy * rel[..., 0] + cy * rel[..., 1],
-                   rel[..., 2]], -1)
-    ld = np.stack([cy * d[:, None, 0] + sy * d[:, None, 1],
-                   -sy * d[:, None, 0] + cy * d[:, None, 1],
-                   np.broadcast_to(d[:, None, 2], (len(d), len(cy)))], -1)
-    h = f.half[None]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t1 = (-h - lp) / ld
-        t2 = (h - lp) / ld
-    lo = np.where(np.isnan(t1), -np.inf, np.minimum(t1, t2))
-    hi = np.where(np.isnan(t1), np.inf, np.maximum(t1, t2))
-    # a zero component of the direction: inside that slab or never
-    flat = ld == 0
-    inside_slab = np.abs(lp) <= h
-    lo = np.where(flat, np.where(inside_slab, -np.inf, np.inf), lo)
-    hi = np.where(flat, np.where(inside_slab, np.inf, -np.inf), hi)
-    t_in, t_out = lo.max(-1), hi.min(-1)
+    t_in, t_out, _, _ = slab_hits(a, b - a, f.center, f.half, f.yaw)
     return (t_in <= t_out) & (t_out > margin) & (t_in < 1 - margin) & (t_in > margin)
 
 

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fallgen.audio.furnished import Furnishing
+from fallgen.audio.furnished import Furnishing, inside_parts, slab_hits
 
 C_SOUND = 343.0
 
@@ -152,29 +152,13 @@ def _hit_boxes(p: np.ndarray, v: np.ndarray, f: Furnishing, cos_y: np.ndarray,
                sin_y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The nearest entry into a furniture part along each ray: distance (inf: none), the
     face's outward normal (room frame) and the part's index."""
-    rel = p[:, None, :] - f.center[None]  # (N, P, 3)
-    lp = np.stack([cos_y * rel[..., 0] + sin_y * rel[..., 1],
-                   -sin_y * rel[..., 0] + cos_y * rel[..., 1], rel[..., 2]], -1)
-    lv = np.stack([cos_y * v[:, None, 0] + sin_y * v[:, None, 1],
-                   -sin_y * v[:, None, 0] + cos_y * v[:, None, 1],
-                   np.broadcast_to(v[:, None, 2], (len(v), len(cos_y)))], -1)
-    h = f.half[None]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inv = 1.0 / lv
-        ta = (-h - lp) * inv
-        tb = (h - lp) * inv
-    tmin = np.minimum(ta, tb)
-    tmax = np.maximum(ta, tb)
-    tmin = np.where(np.isnan(tmin), -np.inf, tmin)
-    tmax = np.where(np.isnan(tmax), np.inf, tmax)
-    t_in = tmin.max(-1)
-    t_out = tmax.min(-1)
+    t_in, t_out, lo, lv = slab_hits(p, v, f.center, f.half, f.yaw)
     hit = (t_in <= t_out) & (t_in > 1e-9)
     t_in = np.where(hit, t_in, np.inf)
     part = np.argmin(t_in, axis=1)
     rows = np.arange(len(p))
     dist = t_in[rows, part]
-    ax = np.argmax(tmin[rows, part], axis=1)  # the entry face's axis (part frame)
+    ax = np.argmax(lo[rows, part], axis=1)  # the entry face's axis (part frame)
     sign = -np.sign(lv[rows, part, ax])
     nl = np.zeros((len(p), 3))
     nl[rows, ax] = sign
@@ -190,12 +174,6 @@ def _free_points(L: np.ndarray, f: Furnishing, n: int, rng: np.random.Generator
     while len(out) < n:
         q = rng.random((2 * n, 3)) * (L - 0.1) + 0.05
         if len(f.names):
-            rel = q[:, None, :] - f.center[None]
-            c, s = np.cos(f.yaw), np.sin(f.yaw)
-            lx = c * rel[..., 0] + s * rel[..., 1]
-            ly = -s * rel[..., 0] + c * rel[..., 1]
-            inside = ((np.abs(lx) <= f.half[:, 0] + 0.05) & (np.abs(ly) <= f.half[:, 1] + 0.05)
-                      & (np.abs(rel[..., 2]) <= f.half[:, 2] + 0.05)).any(1)
-            q = q[~inside]
+            q = q[~inside_parts(q, f.center, f.half, f.yaw, grow=0.05).any(1)]
         out = np.concatenate([out, q])
     return out[:n]

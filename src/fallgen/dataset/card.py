@@ -154,7 +154,9 @@ def write_card(root: Path, config_text: str, root_seed: int, versions: dict[str,
               "2. Generation: each episode replays its fall with the robot standing at a "
               "random free spawn at least 2 m from the object, synthesises modal impact sound "
               "from the contacts (impact speed sets the loudness), spatialises it with "
-              "image-source early reflections, a statistical late reverberation and an HRTF, "
+              "image-source early reflections, the furniture's own first reflections, "
+              "diffraction around furniture in the way, a late reverberation at the furnished "
+              "room's RT60 (`room_rt60_s`) and an HRTF, "
               "renders the first view with MuJoCo, and plans the expert over the robot's own "
               "action lattice, checked by replaying its actions.", "",
               f"Root seed {root_seed}; the episode's random generator is "
