@@ -83,6 +83,7 @@ dataset: setup
 
 ## smoke: a tiny build (two rooms, 24 episodes), validated; CI runs it besides the tests.
 smoke: setup
+	rm -rf build/smoke  # a check from scratch (an older build's rehearsal would be refused)
 	$(FALLGEN) build --config configs/smoke.toml --workers $(WORKERS)
 	$(FALLGEN) validate build/smoke
 	$(FALLGEN) stats build/smoke
