@@ -84,7 +84,7 @@ def furniture_images(source, listener, f: Furnishing, size_m, bands_hz,
             f_g = c * a_star / (2 * (w * cos_t) ** 2)
             if f_g > 0:  # (0: a source on the face, all of it reflected)
                 g = g * np.minimum(1.0, bands / f_g)
-        legs_a = np.array([s + 0.0 * n, q])
+        legs_a = np.array([s, q])
         legs_b = np.array([q, lis])
         att = leg_attenuation_db(legs_a, legs_b, f, bands, c, size_m).sum(0)
         g = g * 10 ** (-np.minimum(att, MAX_ATTENUATION_DB) / 20)

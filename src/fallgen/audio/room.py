@@ -223,8 +223,9 @@ def _arrivals(room: RoomAcoustics, im: ImageSources, listener, until_s: float | 
         lifted = np.asarray(source, float) + (0.0, 0.0, SOURCE_LIFT_M)
         gains = gains * path_gains(lifted, lis, pos, order, room.size_m, room.furniture,
                                    room.bands_hz, room.c)
-        f_pos, f_gains = furniture_images(lifted, lis, room.furniture, room.size_m,
-                                          room.bands_hz, room.c)
+        # mirrored where it is (a source on a table top is its own image there: doubled)
+        f_pos, f_gains = furniture_images(np.asarray(source, float), lis, room.furniture,
+                                          room.size_m, room.bands_hz, room.c)
         pos = np.concatenate([pos, f_pos])
         gains = np.concatenate([gains, f_gains])
         order = np.concatenate([order, np.ones(len(f_pos), order.dtype)])
