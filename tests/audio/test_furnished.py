@@ -162,3 +162,21 @@ def test_ray_tracer_is_reproducible():
                     np.random.default_rng(5), n_rays=100, t_max_s=0.3)
     np.testing.assert_array_equal(a.energy, b.energy)
     assert math.isclose(float(a.energy[0, 0]), 1.0)
+
+
+def test_report_with_rays(world, tmp_path):
+    """`fallgen rooms acoustics --raytrace`'s report: the rays' T30 beside the model's RT60
+    (same order of magnitude, longer where walls reflect specularly), their decay drawn in the
+    PNG, and the same numbers twice (the rays' generator is seeded by the variant)."""
+    from fallgen.audio.acoustics import decay_png, room_report
+
+    v = world.variant("study_office-l1-m1")
+    r = room_report(v, world.materials, raytrace=True, length_s=1.0, n_rays=300)
+    assert r.raytrace_t30_s is not None and r.raytrace_db.shape[1] == 7
+    mid = slice(2, 4)
+    assert np.all(r.raytrace_t30_s[mid] > 0.8 * r.rt60_s[mid])
+    assert np.all(r.raytrace_t30_s[mid] < 2.5 * r.rt60_s[mid])
+    again = room_report(v, world.materials, raytrace=True, length_s=1.0, n_rays=300)
+    np.testing.assert_array_equal(r.raytrace_t30_s, again.raytrace_t30_s)
+    png = decay_png(tmp_path / "d.png", r)
+    assert png.read_bytes()[:4] == b"\x89PNG"

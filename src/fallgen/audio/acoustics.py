@@ -42,6 +42,9 @@ class RoomReport:
     raytrace_t30_s: np.ndarray | None
     decay_db: np.ndarray  # (T, B) Schroeder curves of the rendered response
     decay_t_s: np.ndarray  # (T,)
+    #: the ray tracer's energy decay (dB, on its own time grid), when traced
+    raytrace_db: np.ndarray | None = None
+    raytrace_t_s: np.ndarray | None = None
 
     def as_dict(self) -> dict:
         def f(a):
@@ -81,19 +84,19 @@ def room_report(variant, materials, raytrace: bool = False, length_s: float = 3.
                                                                  length_s=length_s))
     t_db, db = schroeder_bands(h, fs, room.bands_hz)
     t30 = decay_time(t_db, db)
-    ray = None
+    ray = ray_db = ray_t = None
     if raytrace:
         ws = np.array([variant.surfaces[k].scattering for k in SHOEBOX_FACES])
         dec = trace_decay(variant.size_m, room.absorption, ws, room.furniture,
                           np.asarray(room.air_absorption_per_m), _rng(variant.id, 1),
                           n_rays=n_rays, t_max_s=length_s)
-        ray = dec.t30()
+        ray, ray_db, ray_t = dec.t30(), dec.db(), dec.t_s
     f = room.furniture
     return RoomReport(
         variant.id, tuple(room.bands_hz), model.volume_m3, model.surface_m2(), len(f.names),
         float(f.exposed_area.sum()), model.absorption_area(), f.absorption_area(),
         model.mean_free_path_m(), room.rt60(), model.rt60(), model.sabine_rt60(),
-        model.fitzroy_rt60(), bare.eyring_rt60(), t30, ray, db[::20], t_db[::20])
+        model.fitzroy_rt60(), bare.eyring_rt60(), t30, ray, db[::20], t_db[::20], ray_db, ray_t)
 
 
 def schroeder_bands(h: np.ndarray, fs: int, bands_hz) -> tuple[np.ndarray, np.ndarray]:
@@ -113,8 +116,8 @@ def schroeder_bands(h: np.ndarray, fs: int, bands_hz) -> tuple[np.ndarray, np.nd
 
 def decay_png(path: str | Path, report: RoomReport, size: tuple[int, int] = (900, 520)
               ) -> Path:
-    """The rendered response's decay curves per band (solid) and the slope of the renderer's
-    RT60 (dashed), 0 to -60 dB."""
+    """The rendered response's decay curves per band (solid), the slope of the renderer's
+    RT60 (dashed) and, when traced, the ray tracer's decay (thin), 0 to -60 dB."""
     import cv2
 
     from fallgen.atomic import write_bytes
@@ -145,6 +148,9 @@ def decay_png(path: str | Path, report: RoomReport, size: tuple[int, int] = (900
         c = tuple(int(x) for x in colors[b])
         pts = xy(report.decay_t_s, report.decay_db[:, b])
         cv2.polylines(img, [pts], False, c, 2, cv2.LINE_AA)
+        if report.raytrace_db is not None:
+            ray = xy(report.raytrace_t_s, report.raytrace_db[:, b])
+            cv2.polylines(img, [ray], False, c, 1, cv2.LINE_AA)
         rt = float(report.rt60_s[b])
         ts = np.linspace(0, min(rt, t_max), 30)
         dash = xy(ts, -60 * ts / rt)
@@ -154,9 +160,9 @@ def decay_png(path: str | Path, report: RoomReport, size: tuple[int, int] = (900
         cv2.putText(img, f"{label} Hz: {rt:.2f} / {report.t30_s[b]:.2f} s",
                     (w - right + 8, top + 18 * b + 10), cv2.FONT_HERSHEY_SIMPLEX, 0.4, c, 1,
                     cv2.LINE_AA)
-    cv2.putText(img, f"{report.variant}: decay of the rendered response (dB) per octave band; "
-                f"dashed: model RT60 (model / T30)", (left, 30), cv2.FONT_HERSHEY_SIMPLEX, 0.45,
-                (0, 0, 0), 1, cv2.LINE_AA)
+    cv2.putText(img, f"{report.variant}: decay of the rendered response (dB) per octave "
+                "band; dashed: model RT60; thin: rays (model / T30)", (left, 30),
+                cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
     ok, enc = cv2.imencode(".png", img)
     if not ok:
         raise OSError(f"could not encode {path}")
