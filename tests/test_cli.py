@@ -75,6 +75,9 @@ def test_rooms_acoustics(capsys, tmp_path):
     code, out, err = run(capsys, "rooms", "acoustics", "study_office-l1-m1")
     assert code == 0, err
     assert "RT60 model" in out and "T30 rendered" in out and "mean free path" in out
+    code, out, err = run(capsys, "rooms", "acoustics", "study_office-l1-*")  # a row each
+    assert code == 0, err
+    assert "2 variants" in out and "study_office-l1-m1" in out and "study_office-l1-m2" in out
 
 
 def test_unknown_room(capsys, tmp_path):

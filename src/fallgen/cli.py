@@ -489,6 +489,43 @@ def rooms_show(
         console.print(f"wrote {p}")
 
 
+def _acoustics_table(r) -> Table:
+    """One variant's acoustics (:class:`fallgen.audio.acoustics.RoomReport`) as a table."""
+    t = Table(title=f"{r.variant}: V {r.volume_m3:.1f} m^3, S {r.surface_m2:.1f} m^2 "
+              f"({r.furniture_parts} furniture parts, {r.furniture_area_m2:.1f} m^2), "
+              f"mean free path {r.mean_free_path_m:.2f} m")
+    t.add_column("")
+    for fc in r.bands_hz:
+        t.add_column(f"{fc:g} Hz", justify="right")
+    rows = [("RT60 model (Arau-Puchades), s", r.rt60_s), ("T30 rendered, s", r.t30_s),
+            ("Eyring, s", r.eyring_s), ("Sabine, s", r.sabine_s),
+            ("Fitzroy, s", r.fitzroy_s), ("bare room (Eyring), s", r.bare_eyring_s)]
+    if r.raytrace_t30_s is not None:
+        rows.insert(2, ("T30 ray tracer, s", r.raytrace_t30_s))
+    rows += [("absorption area, m^2", r.absorption_area_m2),
+             ("  of it furniture, m^2", r.furniture_absorption_m2)]
+    for name, vals in rows:
+        t.add_row(name, *[f"{x:.2f}" for x in vals])
+    return t
+
+
+def _acoustics_summary(reports, raytrace: bool) -> Table:
+    """Many variants' acoustics, a row each."""
+    t = Table(title=f"{len(reports)} variants: RT60 of the furnished room (model) and T30 "
+              "of a rendered response, s")
+    for col in ("variant", "V m^3", "mean free path m", "125 Hz", "500 Hz", "1 kHz",
+                "4 kHz", "T30 500 Hz-1 kHz") + (("rays 500 Hz-1 kHz",) if raytrace else ()):
+        t.add_column(col, justify="left" if col == "variant" else "right")
+    for r in reports:
+        row = [r.variant, f"{r.volume_m3:.1f}", f"{r.mean_free_path_m:.2f}",
+               *[f"{r.rt60_s[b]:.2f}" for b in (0, 2, 3, 5)],
+               f"{r.t30_s[2:4].mean():.2f}"]
+        if raytrace:
+            row.append(f"{r.raytrace_t30_s[2:4].mean():.2f}")
+        t.add_row(*row)
+    return t
+
+
 @rooms_app.command("acoustics")
 def rooms_acoustics(
     room: Annotated[str, typer.Argument(help="Variant id (or a glob).")],
@@ -519,23 +556,10 @@ def rooms_acoustics(
             decay_png(out if len(vs) == 1 and out.suffix else out / f"{r.variant}.png", r)
         if as_json:
             print(json.dumps(r.as_dict()))
-            continue
-        t = Table(title=f"{r.variant}: V {r.volume_m3:.1f} m^3, S {r.surface_m2:.1f} m^2 "
-                  f"({r.furniture_parts} furniture parts, {r.furniture_area_m2:.1f} m^2), "
-                  f"mean free path {r.mean_free_path_m:.2f} m")
-        t.add_column("")
-        for fc in r.bands_hz:
-            t.add_column(f"{fc:g} Hz", justify="right")
-        rows = [("RT60 model (Arau-Puchades), s", r.rt60_s), ("T30 rendered, s", r.t30_s),
-                ("Eyring, s", r.eyring_s), ("Sabine, s", r.sabine_s),
-                ("Fitzroy, s", r.fitzroy_s), ("bare room (Eyring), s", r.bare_eyring_s)]
-        if r.raytrace_t30_s is not None:
-            rows.insert(2, ("T30 ray tracer, s", r.raytrace_t30_s))
-        rows += [("absorption area, m^2", r.absorption_area_m2),
-                 ("  of it furniture, m^2", r.furniture_absorption_m2)]
-        for name, vals in rows:
-            t.add_row(name, *[f"{x:.2f}" for x in vals])
-        console.print(t)
+    if len(reports) > 1 and not as_json:  # one row per variant
+        console.print(_acoustics_summary(reports, raytrace))
+    if len(reports) == 1 and not as_json:
+        console.print(_acoustics_table(reports[0]))
     if out is not None and not as_json:
         console.print(f"wrote {len(reports)} PNG(s) under {out}")
 
