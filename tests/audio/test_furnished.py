@@ -180,3 +180,35 @@ def test_report_with_rays(world, tmp_path):
     np.testing.assert_array_equal(r.raytrace_t30_s, again.raytrace_t30_s)
     png = decay_png(tmp_path / "d.png", r)
     assert png.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_upholstery_absorbs_per_acoustical_area(world):
+    """Upholstery's coefficients are the table's seating rows: per m^2 of seating, its free
+    edges included. A 2 x 0.9 m sofa with its back on the wall absorbs alpha times its
+    footprint plus a 0.5 m strip along its three free sides (Beranek's acoustical area),
+    whatever the parts it is built of; standing free, along all four."""
+    from dataclasses import dataclass
+
+    from fallgen.audio.furnished import acoustical_area_m2
+
+    @dataclass
+    class Item:
+        id: str
+        pose: tuple
+        size: tuple
+
+    against = Item("sofa", (2.5, 0.45, 0.0, 0.0), (2.0, 0.9, 0.85))  # back on the south wall
+    free = Item("sofa", (2.5, 2.0, 0.0, math.radians(30)), (2.0, 0.9, 0.85))
+    assert acoustical_area_m2(against, (5.0, 4.0)) == pytest.approx(1.8 + 0.5 * 3.8)
+    assert acoustical_area_m2(free, (5.0, 4.0)) == pytest.approx(1.8 + 0.5 * 5.8)
+    # a sofa of the library in a room: its parts' absorption adds up to that
+    v = next(v for v in world.variants() if any(i.type == "sofa" for i in v.furniture))
+    f = furnishing(v, world.materials)
+    sofa = next(i for i in v.furniture if i.type == "sofa")
+    ks = [k for k, n in enumerate(f.names) if n.startswith(sofa.id + "/")
+          and world.materials.object(dict(
+              (p.name, p.material) for p in sofa.parts)[n.split("/", 1)[1]]).absorption_per
+          == "seating_area"]
+    alpha = np.asarray(world.materials.object("fabric").absorption)
+    got = (f.exposed_area[ks, None] * f.absorption[ks]).sum(0)
+    np.testing.assert_allclose(got, alpha * acoustical_area_m2(sofa, v.size_m[:2]), rtol=1e-9)

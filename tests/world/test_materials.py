@@ -353,6 +353,7 @@ def test_copy_of_shipped_files_loads(tmp_path):
         ("paper", "absorption", "absorption = [0.1, 0.1, 1.3, 0.1, 0.1, 0.1, 0.1]",
          "paper.absorption[2]"),
         ("wood_medium", "scattering", "scattering = 2", "wood_medium.scattering"),
+        ("fabric", "absorption_per", 'absorption_per = "seat"', "fabric.absorption_per"),
         ("metal.grades.brass", "absorption", "absorption = [0.1]",
          "metal.grades.brass.absorption"),
     ],

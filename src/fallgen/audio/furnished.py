@@ -134,10 +134,49 @@ def furnishing(variant, materials: MaterialLibrary, samples: int = 8) -> Furnish
                         open_area[2:4].sum() if fx else open_area[:2].sum(),
                         open_area[4:].sum()))
     mats = [materials.object(p.material) for _, p in rows]
+    absorption = np.array([m.absorption for m in mats], float)
+    areas = np.array(areas)
+    # upholstery: its coefficients are per m^2 of the item's acoustical area (seating's way)
+    seats: dict[str, list[int]] = {}
+    for k, ((item, _), m) in enumerate(zip(rows, mats)):
+        if m.absorption_per == "seating_area":
+            seats.setdefault(item.id, []).append(k)
+    items = {i.id: i for i, _ in rows}
+    for item_id, ks in seats.items():
+        exposed = areas[ks].sum()
+        if exposed > 0:
+            scale = acoustical_area_m2(items[item_id], (lx, ly)) / exposed
+            absorption[ks] = np.minimum(absorption[ks] * scale, 1.0)
     return Furnishing(tuple(f"{i.id}/{p.name}" for i, p in rows), center, half, yaw,
-                      np.array([m.absorption for m in mats], float),
-                      np.array([m.scattering for m in mats], float), np.array(areas),
+                      absorption, np.array([m.scattering for m in mats], float), areas,
                       np.array(by_axis, float), covered, np.array(shares))
+
+
+#: The strip along a seating area's free edges that absorbs with it (m): Beranek's
+#: "acoustical area" (Concert Halls and Opera Houses, 2nd ed. 2004, after Kath & Kuhl 1965).
+SEATING_EDGE_M = 0.5
+#: A side of an item within this of a wall stands against it (not a free edge), m.
+AGAINST_WALL_M = 0.1
+
+
+def acoustical_area_m2(item, room_xy) -> float:
+    """An upholstered item's acoustical area: its footprint plus SEATING_EDGE_M along each
+    side of it that does not stand against a wall."""
+    x, y, _, yaw = item.pose
+    w, d = item.size[0], item.size[1]
+    c, s = math.cos(yaw), math.sin(yaw)
+    ux, uy = np.array([c, s]) * w / 2, np.array([-s, c]) * d / 2
+    p = np.array([x, y])
+    corners = [p - ux - uy, p + ux - uy, p + ux + uy, p - ux + uy]
+    L = np.asarray(room_xy, float)
+    free = 0.0
+    for a, b in zip(corners, corners[1:] + corners[:1]):
+        against = any((abs(a[ax] - wall) < AGAINST_WALL_M and abs(b[ax] - wall) < AGAINST_WALL_M)
+                      for ax in range(2) for wall in (0.0, L[ax]))
+        if not against:
+            free += float(np.linalg.norm(b - a))
+    return w * d + SEATING_EDGE_M * free
+
 
 
 def in_part_frames(rel: np.ndarray, yaw: np.ndarray) -> np.ndarray:

@@ -63,6 +63,7 @@ _OBJECT_FIELDS = (
     "contact_modulus_ratio",
     "absorption",
     "scattering",
+    "absorption_per",
     "rgba",
     "sources",
     "grades",
@@ -79,6 +80,7 @@ _GRADE_FIELDS = (
     "contact_modulus_ratio",
     "absorption",
     "scattering",
+    "absorption_per",
     "rgba",
     "sources",
 )
@@ -128,6 +130,10 @@ class ObjectMaterial:
     #: OCTAVE_BANDS_HZ band and scattering coefficient (the furnished room's acoustics)
     absorption: tuple[float, ...] = ()
     scattering: float = 0.1
+    #: what ``absorption`` is per: "surface" (each m^2 of a part's exposed faces) or
+    #: "seating_area" (each m^2 of an upholstered item's acoustical area: its footprint plus
+    #: a 0.5 m strip along its free edges, as seating absorption is measured and tabled)
+    absorption_per: str = "surface"
 
     @property
     def contact_modulus_pa(self) -> float:
@@ -251,6 +257,10 @@ def _elastic(f: Fields, base: ObjectMaterial | None) -> dict:
     )
 
 
+#: What an object material's ``absorption`` is per (see :class:`ObjectMaterial`).
+ABSORPTION_PER = ("surface", "seating_area")
+
+
 def _acoustic(f: Fields, base: ObjectMaterial | None) -> dict:
     """A furniture part's absorption and scattering; a grade inherits them unless it sets
     them."""
@@ -262,7 +272,9 @@ def _acoustic(f: Fields, base: ObjectMaterial | None) -> dict:
         scattering = base.scattering
     else:
         scattering = f.float("scattering", lo=0.0, hi=1.0)
-    return dict(absorption=absorption, scattering=scattering)
+    per = base.absorption_per if base is not None and "absorption_per" not in f else \
+        f.str("absorption_per", "surface", choices=ABSORPTION_PER)
+    return dict(absorption=absorption, scattering=scattering, absorption_per=per)
 
 
 def parse_object_materials(f: Fields) -> dict[str, ObjectMaterial]:
