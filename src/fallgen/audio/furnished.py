@@ -19,10 +19,10 @@ decays more slowly than a diffuse field's. Measured against the ray tracer
 (:mod:`fallgen.audio.raytrace`; tests/audio/test_furnished.py): a room absorbing only on its floor
 with walls of scattering 0.1, rays 1.00 s, Arau 1.15 s, Eyring 0.63 s, Fitzroy 2.08 s; with
 diffuse walls rays 0.60 s and Eyring 0.63 s. In the furnished variants the ray tracer, with the
-surfaces' own scattering coefficients (0.05-0.1), gives 15-70 % longer times than Arau (furniture
-faces near walls and the floor are met less often than a diffuse field would meet them); with
-diffuse walls it is within ~25 %. Real rooms' clutter (objects, pictures, doors) scatters more than
-flat walls: the difference is the model's documented uncertainty.
+surfaces' own scattering coefficients (0.05-0.1), gives 4-47 % longer times than Arau at 500 Hz-1
+kHz (rays between parallel hard walls above the furniture; README). Real rooms' clutter
+(objects, pictures, doors) scatters more than flat walls: the difference is the model's
+documented uncertainty.
 
 The furniture also takes its share from the early reflections: a path of length r through the
 furnished room meets furniture surfaces at a rate S_f / (4 V') per metre, each taking alpha_f of
