@@ -89,7 +89,6 @@ def furnishing(variant, materials: MaterialLibrary, samples: int = 8) -> Furnish
     center = np.array([p.box.center for _, p in rows], float)
     half = np.array([p.box.half for _, p in rows], float)
     yaw = np.array([p.box.yaw for _, p in rows], float)
-    cy, sy = np.cos(yaw), np.sin(yaw)
     g = (np.arange(samples) + 0.5) / samples * 2 - 1  # face grid in [-1, 1]
     u, w = [a.ravel() for a in np.meshgrid(g, g, indexing="ij")]
     covered = np.zeros(6)
@@ -104,18 +103,13 @@ def furnishing(variant, materials: MaterialLibrary, samples: int = 8) -> Furnish
             face = np.array([4 * h[1] * h[2]] * 2 + [4 * h[0] * h[2]] * 2
                             + [4 * h[0] * h[1]] * 2)
         open_area, share = np.zeros(6), np.zeros(6)
-        for fi in range(6):
-            ax, sign = fi // 2, (1.0 if fi % 2 == 0 else -1.0)
-            if fi >= 4:  # bottom (4), top (5)
-                ax, sign = 2, (-1.0 if fi == 4 else 1.0)
+        for fi, (ax, sign) in enumerate(FACES):
             o = [a for a in range(3) if a != ax]
             local = np.zeros((len(u), 3))
             local[:, ax] = sign * (h[ax] + 0.01)
             local[:, o[0]] = u * h[o[0]]
             local[:, o[1]] = w * h[o[1]]
-            pts = center[k] + np.stack([cy[k] * local[:, 0] - sy[k] * local[:, 1],
-                                        sy[k] * local[:, 0] + cy[k] * local[:, 1],
-                                        local[:, 2]], 1)
+            pts = center[k] + to_room_frame(local, yaw[k])
             out_lo, out_hi = pts < 0, pts > L
             outside = (out_lo | out_hi).any(1)
             inside = _inside_any(pts, center, half, yaw, skip=k)
@@ -177,6 +171,18 @@ def acoustical_area_m2(item, room_xy) -> float:
             free += float(np.linalg.norm(b - a))
     return w * d + SEATING_EDGE_M * free
 
+
+
+#: A part's six faces (+x, -x, +y, -y in its frame, bottom, top): the local axis each looks
+#: along and which way.
+FACES = ((0, 1.0), (0, -1.0), (1, 1.0), (1, -1.0), (2, -1.0), (2, 1.0))
+
+
+def to_room_frame(local: np.ndarray, yaw) -> np.ndarray:
+    """Vectors in a part's frame (..., 3) rotated by ``yaw`` (broadcast) into the room's."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.stack([c * local[..., 0] - s * local[..., 1], s * local[..., 0] + c * local[..., 1],
+                     local[..., 2]], -1)
 
 
 def in_part_frames(rel: np.ndarray, yaw: np.ndarray) -> np.ndarray:
@@ -265,17 +271,23 @@ class FurnishedAcoustics:
         a = np.minimum(self.absorption_area() / s, 0.999999)
         return 0.161 * v / (-s * np.log1p(-a) + 4 * self.air_absorption_per_m * v)
 
+    def axis_pairs(self) -> tuple[np.ndarray, np.ndarray]:
+        """The boundary by the axis it faces (x, y, z): each pair of opposite room faces with
+        the furniture faces looking that way; areas (3,) and absorption areas (3, B), m^2."""
+        w = self.wall_areas()
+        f = self.furniture
+        s_i = np.array([w[0] + w[1], w[2] + w[3], w[4] + w[5]]) + f.exposed_by_axis.sum(0)
+        a_i = np.stack([w[2 * i:2 * i + 2] @ self.wall_absorption[2 * i:2 * i + 2]
+                        for i in range(3)]) + f.exposed_by_axis.T @ f.absorption
+        return s_i, a_i
+
     def arau_rt60(self) -> np.ndarray:
         """(B,) Arau-Puchades' reverberation time (Acustica 65, 1988): Eyring's for each pair
         of opposite faces (x, y, z; furniture faces by the axis they look along), weighted
         geometrically by their areas, T = prod_i T_i^(S_i / S). For absorption concentrated
         on one pair (a carpeted floor under hard walls)."""
         v = self.volume_m3
-        w = self.wall_areas()
-        f = self.furniture
-        s_i = np.array([w[0] + w[1], w[2] + w[3], w[4] + w[5]]) + f.exposed_by_axis.sum(0)
-        a_i = np.stack([w[2 * i:2 * i + 2] @ self.wall_absorption[2 * i:2 * i + 2]
-                        for i in range(3)]) + f.exposed_by_axis.T @ f.absorption  # (3, B)
+        s_i, a_i = self.axis_pairs()
         s = s_i.sum()
         t = 1.0
         for i in range(3):
@@ -288,11 +300,7 @@ class FurnishedAcoustics:
         """(B,) Fitzroy's (JASA 31, 1959): the three pairs' Eyring terms averaged by area,
         T = 0.161 V / S^2 sum_i S_i / (-ln(1 - alpha_i) + 4 m V / S)."""
         v = self.volume_m3
-        w = self.wall_areas()
-        f = self.furniture
-        s_i = np.array([w[0] + w[1], w[2] + w[3], w[4] + w[5]]) + f.exposed_by_axis.sum(0)
-        a_i = np.stack([w[2 * i:2 * i + 2] @ self.wall_absorption[2 * i:2 * i + 2]
-                        for i in range(3)]) + f.exposed_by_axis.T @ f.absorption
+        s_i, a_i = self.axis_pairs()
         s = s_i.sum()
         m = 4 * self.air_absorption_per_m * v / s
         return 0.161 * v / s ** 2 * sum(

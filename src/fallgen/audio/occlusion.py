@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from fallgen.audio.furnished import Furnishing, slab_hits
+from fallgen.audio.furnished import Furnishing, slab_hits, to_room_frame
 
 #: Above this the other paths of the room carry the sound (Maekawa's data reach ~24 dB).
 MAX_ATTENUATION_DB = 24.0
@@ -62,10 +62,7 @@ def _edge_points(f: Furnishing, parts: np.ndarray) -> np.ndarray:
     unit = np.concatenate(pts)  # (12 S, 3) in [-1, 1]^3
     h = f.half[parts][:, None, :] * 1.001
     loc = unit[None] * h
-    c, sn = np.cos(f.yaw[parts])[:, None], np.sin(f.yaw[parts])[:, None]
-    world = np.stack([c * loc[..., 0] - sn * loc[..., 1], sn * loc[..., 0] + c * loc[..., 1],
-                      loc[..., 2]], -1)
-    return world + f.center[parts][:, None, :]
+    return to_room_frame(loc, f.yaw[parts][:, None]) + f.center[parts][:, None, :]
 
 
 def leg_attenuation_db(a: np.ndarray, b: np.ndarray, f: Furnishing,

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fallgen.audio.furnished import Furnishing, inside_parts, slab_hits
+from fallgen.audio.furnished import Furnishing, inside_parts, slab_hits, to_room_frame
 
 C_SOUND = 343.0
 
@@ -73,7 +73,6 @@ def trace_decay(size_m, wall_absorption: np.ndarray, wall_scattering: np.ndarray
     B = wa.shape[1]
     n_t = int(math.ceil(t_max_s / dt_s)) + 1
     grid_e = np.zeros((n_t, B))
-    cos_y, sin_y = np.cos(furniture.yaw), np.sin(furniture.yaw)
     # start points
     if source is None:
         pos = _free_points(L, furniture, n_rays, rng)
@@ -98,7 +97,7 @@ def trace_decay(size_m, wall_absorption: np.ndarray, wall_scattering: np.ndarray
         absb = wa[face]
         scat = ws[face]
         if len(furniture.names):
-            tb, nb, part = _hit_boxes(p, v, furniture, cos_y, sin_y)
+            tb, nb, part = _hit_boxes(p, v, furniture)
             closer = tb < dist
             dist = np.where(closer, tb, dist)
             normal[closer] = nb[closer]
@@ -148,8 +147,8 @@ def _lambert(normal: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     return local[:, :1] * t1 + local[:, 1:2] * t2 + local[:, 2:] * normal
 
 
-def _hit_boxes(p: np.ndarray, v: np.ndarray, f: Furnishing, cos_y: np.ndarray,
-               sin_y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _hit_boxes(p: np.ndarray, v: np.ndarray, f: Furnishing
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The nearest entry into a furniture part along each ray: distance (inf: none), the
     face's outward normal (room frame) and the part's index."""
     t_in, t_out, lo, lv = slab_hits(p, v, f.center, f.half, f.yaw)
@@ -162,9 +161,7 @@ def _hit_boxes(p: np.ndarray, v: np.ndarray, f: Furnishing, cos_y: np.ndarray,
     sign = -np.sign(lv[rows, part, ax])
     nl = np.zeros((len(p), 3))
     nl[rows, ax] = sign
-    c, s = cos_y[part], sin_y[part]
-    normal = np.stack([c * nl[:, 0] - s * nl[:, 1], s * nl[:, 0] + c * nl[:, 1], nl[:, 2]], 1)
-    return dist, normal, part
+    return dist, to_room_frame(nl, f.yaw[part]), part
 
 
 def _free_points(L: np.ndarray, f: Furnishing, n: int, rng: np.random.Generator

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fallgen.audio.furnished import Furnishing
+from fallgen.audio.furnished import FACES, Furnishing, to_room_frame
 from fallgen.audio.occlusion import MAX_ATTENUATION_DB, leg_attenuation_db
 
 #: Faces smaller than this reflect too little, and too high up, to matter (m^2): a chair's
@@ -39,14 +39,9 @@ def _faces(f: Furnishing):
         return out
     share = f.face_open if f.face_open is not None else np.ones((len(f.names), 6))
     for k in range(len(f.names)):
-        c, h, yaw = f.center[k], f.half[k], f.yaw[k]
-        ex = np.array([np.cos(yaw), np.sin(yaw), 0.0])
-        ey = np.array([-np.sin(yaw), np.cos(yaw), 0.0])
-        ez = np.array([0.0, 0.0, 1.0])
-        axes = (ex, ey, ez)
-        for fi in range(6):
-            ax, sign = (fi // 2, 1.0 if fi % 2 == 0 else -1.0) if fi < 4 else \
-                (2, -1.0 if fi == 4 else 1.0)
+        c, h = f.center[k], f.half[k]
+        axes = to_room_frame(np.eye(3), f.yaw[k])  # the part's x, y, z in the room
+        for fi, (ax, sign) in enumerate(FACES):
             o = [a for a in range(3) if a != ax]
             area = 4 * h[o[0]] * h[o[1]]
             if area < MIN_FACE_M2 or share[k, fi] < MIN_OPEN_SHARE:

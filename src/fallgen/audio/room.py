@@ -308,7 +308,8 @@ def late_reverb(room: RoomAcoustics, level: np.ndarray, start_s: float, n_out: i
                 ear_power: np.ndarray | None = None, ear_distance_m: float = 0.175,
                 frame: int = 1024) -> np.ndarray:
     """(E, n_out) decaying noise from ``start_s``: in band b its power per sample is
-    level_b exp(-13.82 (t - start_s) / T_b) (T_b: :meth:`RoomAcoustics.rt60`), faded in over 5 ms at ``start_s``.
+    level_b exp(-13.82 (t - start_s) / T_b) (T_b: :meth:`RoomAcoustics.rt60`), faded in over
+    5 ms at ``start_s``.
     Built frame by frame in the STFT domain (sqrt-Hann frames, 50 % overlap). ``ear_power``
     (E, frame // 2 + 1): each ear's diffuse-field HRTF power; two ears get the diffuse-field
     interaural coherence."""

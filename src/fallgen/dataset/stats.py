@@ -63,6 +63,11 @@ def _sorted(c: Counter) -> dict:
     return dict(sorted(c.items(), key=lambda kv: (-kv[1], kv[0])))
 
 
+def _rt60_by_variant(rows: list[dict]) -> dict[str, list[float]]:
+    """Each room variant's RT60 per band (one per variant: its episodes all carry it)."""
+    return {r["room_variant"]: r["room_rt60_s"] for r in rows if r.get("room_rt60_s")}
+
+
 def stats(root: str | Path) -> dict:
     root = Path(root)
     rows, dropped = [], []
@@ -112,7 +117,7 @@ def stats(root: str | Path) -> dict:
     out["audio_energy_by_material"] = dict(sorted(
         by_mat_summary.items(), key=lambda kv: -kv[1]["energy_ratio_p50"]))
     # the rooms' reverberation: each variant once (its furnished RT60 per band)
-    rt = {r["room_variant"]: r["room_rt60_s"] for r in rows if r.get("room_rt60_s")}
+    rt = _rt60_by_variant(rows)
     if rt:
         arr = np.array(list(rt.values()), float)  # (variants, 7)
         out["room_rt60_s"] = {
@@ -193,7 +198,7 @@ def goals(rows: list[dict]) -> dict:
                             "bound": f"every fall >= {lim:g} m", "ok": short == 0}
     else:
         g["fall_height"] = {"value": None, "bound": f"every fall >= {lim:g} m", "ok": None}
-    rt = {r["room_variant"]: r["room_rt60_s"] for r in rows if r.get("room_rt60_s")}
+    rt = _rt60_by_variant(rows)
     lo, hi = GOALS["rt60_mid_s"]
     if rt:
         mid = {k: float(np.mean(v[2:4])) for k, v in rt.items()}
