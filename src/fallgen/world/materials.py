@@ -17,9 +17,10 @@ Units are SI throughout and spelled in the field names (``density_kg_m3``, ``you
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Any
 
 from fallgen.errors import InputError
 from fallgen.fields import Fields, load_toml
@@ -235,13 +236,17 @@ def _sources(f: Fields) -> tuple[str, ...]:
     return s
 
 
+def _own_or_base(f: Fields, base: ObjectMaterial | None, key: str, read: Callable[[], Any]):
+    """A grade's own ``key`` where it sets one, else its base material's (``read`` parses
+    it; a base material always reads its own)."""
+    return getattr(base, key) if base is not None and key not in f else read()
+
+
 def _elastic(f: Fields, base: ObjectMaterial | None) -> dict:
     """Elastic and contact constants; a grade inherits what it does not override from its base."""
 
-    def num(key: str, **kw) -> float:
-        if base is not None and key not in f:
-            return getattr(base, key)
-        return f.float(key, **kw)
+    def num(key: str, *default, **kw) -> float:
+        return _own_or_base(f, base, key, lambda: f.float(key, *default, **kw))
 
     return dict(
         density_kg_m3=num("density_kg_m3", lo=1.0, hi=25000.0),
@@ -251,9 +256,7 @@ def _elastic(f: Fields, base: ObjectMaterial | None) -> dict:
         restitution=num("restitution", lo=0.0, hi=0.95),
         contact_timeconst_s=num("contact_timeconst_s", lo=0.004, hi=0.1),
         contact_dampratio=num("contact_dampratio", positive=True, hi=10.0),
-        contact_modulus_ratio=(getattr(base, "contact_modulus_ratio")
-                               if base is not None and "contact_modulus_ratio" not in f
-                               else f.float("contact_modulus_ratio", 1.0, lo=0.001, hi=1.0)),
+        contact_modulus_ratio=num("contact_modulus_ratio", 1.0, lo=0.001, hi=1.0),
     )
 
 
@@ -262,19 +265,16 @@ ABSORPTION_PER = ("surface", "seating_area")
 
 
 def _acoustic(f: Fields, base: ObjectMaterial | None) -> dict:
-    """A furniture part's absorption and scattering; a grade inherits them unless it sets
-    them."""
-    if base is not None and "absorption" not in f:
-        absorption = base.absorption
-    else:
-        absorption = f.floats("absorption", n=len(OCTAVE_BANDS_HZ), lo=0.0, hi=1.0)
-    if base is not None and "scattering" not in f:
-        scattering = base.scattering
-    else:
-        scattering = f.float("scattering", lo=0.0, hi=1.0)
-    per = base.absorption_per if base is not None and "absorption_per" not in f else \
-        f.str("absorption_per", "surface", choices=ABSORPTION_PER)
-    return dict(absorption=absorption, scattering=scattering, absorption_per=per)
+    """A furniture part's absorption, scattering and what the absorption is per; a grade
+    inherits them unless it sets them."""
+    return dict(
+        absorption=_own_or_base(f, base, "absorption", lambda: f.floats(
+            "absorption", n=len(OCTAVE_BANDS_HZ), lo=0.0, hi=1.0)),
+        scattering=_own_or_base(f, base, "scattering",
+                                lambda: f.float("scattering", lo=0.0, hi=1.0)),
+        absorption_per=_own_or_base(f, base, "absorption_per", lambda: f.str(
+            "absorption_per", "surface", choices=ABSORPTION_PER)),
+    )
 
 
 def parse_object_materials(f: Fields) -> dict[str, ObjectMaterial]:
