@@ -41,9 +41,10 @@ import numpy as np
 from fallgen.world.materials import OCTAVE_BANDS_HZ, MaterialLibrary
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Furnishing:
-    """The furniture of a room variant as the acoustics sees it: one row per part."""
+    """The furniture of a room variant as the acoustics sees it: one row per part (compared
+    and hashed by identity: what is derived from it is kept per instance)."""
 
     names: tuple[str, ...]  # "<furniture id>/<part name>"
     center: np.ndarray  # (P, 3) room frame, m

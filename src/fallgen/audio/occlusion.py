@@ -107,19 +107,22 @@ def path_gains(source: np.ndarray, listener: np.ndarray, images: np.ndarray,
     src = np.asarray(source, float)
     lis = np.asarray(listener, float)
     L = np.asarray(size_m, float)
-    att = np.zeros((len(sel), len(bands_hz)))
+    legs, owner = [], []  # every leg of every path, and the path it belongs to
     for k, i in enumerate(sel):
         im = images[i]
         if order[i] == 0:
-            legs = [(src, lis)]
+            legs.append((src, lis))
+            owner.append(k)
         else:  # the wall it reflects on: the axis where the image left the room
             ax = int(np.argmax(np.abs(im - src)))
             wall = 0.0 if im[ax] < 0 else L[ax]
             t = (wall - im[ax]) / (lis[ax] - im[ax])
             q = im + t * (lis - im)
-            legs = [(src, q), (q, lis)]
-        a = np.array([p for p, _ in legs])
-        b = np.array([q for _, q in legs])
-        att[k] = leg_attenuation_db(a, b, f, bands_hz, c, L).sum(0)
+            legs += [(src, q), (q, lis)]
+            owner += [k, k]
+    leg_db = leg_attenuation_db(np.array([a for a, _ in legs]), np.array([b for _, b in legs]),
+                                f, bands_hz, c, L)
+    att = np.zeros((len(sel), len(bands_hz)))
+    np.add.at(att, np.array(owner), leg_db)
     g[sel] = 10 ** (-np.minimum(att, MAX_ATTENUATION_DB) / 20)
     return g

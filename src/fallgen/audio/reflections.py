@@ -17,6 +17,8 @@ pressure, as the floor doubles a source on the floor.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from fallgen.audio.furnished import FACES, Furnishing, to_room_frame
@@ -31,12 +33,14 @@ MIN_OPEN_SHARE = 0.5
 ON_FACE_M = 0.02
 
 
-def _faces(f: Furnishing):
+@functools.lru_cache(maxsize=16)
+def _faces(f: Furnishing) -> tuple:
     """Per candidate face: part index, centre, outward normal, the two in-plane unit axes and
-    half sizes (room frame)."""
+    half sizes (room frame). A room's furniture is fixed: kept per Furnishing (by identity),
+    not rebuilt for every sound source."""
     out = []
     if not len(f.names):
-        return out
+        return ()
     share = f.face_open if f.face_open is not None else np.ones((len(f.names), 6))
     for k in range(len(f.names)):
         c, h = f.center[k], f.half[k]
@@ -48,7 +52,7 @@ def _faces(f: Furnishing):
                 continue
             n = sign * axes[ax]
             out.append((k, c + n * h[ax], n, axes[o[0]], axes[o[1]], h[o[0]], h[o[1]]))
-    return out
+    return tuple(out)
 
 
 def furniture_images(source, listener, f: Furnishing, size_m, bands_hz,
@@ -59,7 +63,7 @@ def furniture_images(source, listener, f: Furnishing, size_m, bands_hz,
     s = np.asarray(source, float)
     lis = np.asarray(listener, float)
     bands = np.asarray(bands_hz, float)
-    pos, gains = [], []
+    pos, gains, legs = [], [], []
     for k, p0, n, u, v, hu, hv in _faces(f):
         ds, dl = float((s - p0) @ n), float((lis - p0) @ n)
         if ds < -ON_FACE_M or dl <= 0.0:
@@ -79,12 +83,13 @@ def furniture_images(source, listener, f: Furnishing, size_m, bands_hz,
             f_g = c * a_star / (2 * (w * cos_t) ** 2)
             if f_g > 0:  # (0: a source on the face, all of it reflected)
                 g = g * np.minimum(1.0, bands / f_g)
-        legs_a = np.array([s, q])
-        legs_b = np.array([q, lis])
-        att = leg_attenuation_db(legs_a, legs_b, f, bands, c, size_m).sum(0)
-        g = g * 10 ** (-np.minimum(att, MAX_ATTENUATION_DB) / 20)
         pos.append(image)
         gains.append(g)
+        legs += [(s, q), (q, lis)]
     if not pos:
         return np.zeros((0, 3)), np.zeros((0, len(bands)))
-    return np.array(pos), np.array(gains)
+    # both legs of every reflection bend around the parts in their way, traced at once
+    att = leg_attenuation_db(np.array([a for a, _ in legs]), np.array([b for _, b in legs]),
+                             f, bands, c, size_m)
+    att = att[0::2] + att[1::2]
+    return np.array(pos), np.array(gains) * 10 ** (-np.minimum(att, MAX_ATTENUATION_DB) / 20)
