@@ -44,9 +44,11 @@ def test_realistic_sizes(world):
 def test_layouts_differ(world):
     """The four layouts of a room are different arrangements, not copies."""
     for r in world.rooms.values():
-        sigs = {tuple(sorted((it.type, round(it.pose[0], 1), round(it.pose[1], 1))
-                             for it in v.furniture)) for v in r.variants}
-        assert len(sigs) == 4, r.id
+        for m in r.material_sets:  # (a set may add its soft furnishings: rugs, curtains)
+            sigs = {tuple(sorted((it.type, round(it.pose[0], 1), round(it.pose[1], 1))
+                                 for it in v.furniture))
+                    for v in r.variants if v.material_set == m}
+            assert len(sigs) == 4, (r.id, m)
 
 
 def test_material_sets_differ(world):
@@ -142,3 +144,93 @@ def test_drop_regions(world):
                 assert z.drop.zmax > 2.3, (v.id, z.id)
             assert isinstance(z, Zone)
             assert math.isclose(z.drop.center[0], z.volume.center[0])
+
+
+# --- soft furnishings: rugs, curtains, and items of one material set ----------------------------
+
+def test_rugs_lie_under_things_and_the_robot_drives_over_them(world):
+    """Rugs are thin fabric slabs on the floor that tables and chairs stand on, zones lie on
+    and the robot crosses: a variant's free floor is the same without its rugs."""
+    from fallgen.world.furniture import FLOOR_COVERING_MAX_M
+
+    rugs = 0
+    for v in _all(world):
+        mine = [it for it in v.furniture if it.type == "rug"]
+        for it in mine:
+            (pile,) = it.parts
+            assert pile.material == "fabric/rug" and pile.box.zmin == 0.0
+            assert pile.box.zmax <= FLOOR_COVERING_MAX_M + 1e-9
+            assert "behind" not in it.anchors
+        if mine:
+            rugs += len(mine)
+            bare = dataclasses.replace(v, furniture=tuple(it for it in v.furniture
+                                                          if it.type != "rug"))
+            assert navigability(v) == navigability(bare), v.id
+    assert rugs >= 20
+    # the dining table and its chairs stand on the rug, and the variant is valid
+    v = world.variant("kitchen_dining-l1-m1")
+    rug = next(it for it in v.furniture if it.id == "rug").parts[0].box
+    legs = [p for it in v.furniture if it.id == "table" for p in it.parts if p.role == "legs"]
+    assert legs and all(rug.contains(np.array([p.box.center[:2] + (0.01,)])).all()
+                        for p in legs)
+    assert check_variant(v) == []
+
+
+def test_curtains_hang_at_the_walls(world):
+    for v in _all(world):
+        for it in v.furniture:
+            if it.type == "curtain":
+                assert it.wall is not None and it.size[1] <= 0.3, (v.id, it.id)
+                assert it.parts[0].material == "fabric/drape"
+
+
+def test_items_of_one_material_set(world):
+    """``sets`` puts an item in some material sets only: study_lounge's m2 (wall-to-wall
+    carpet) has no rug and no curtains, its m1 has both; the zones are the same."""
+    m1, m2 = world.variant("study_lounge-l1-m1"), world.variant("study_lounge-l1-m2")
+    types1, types2 = {it.type for it in m1.furniture}, {it.type for it in m2.furniture}
+    assert {"rug", "curtain"} <= types1 and not {"rug", "curtain"} & types2
+    assert [z.anchor for z in m1.zones] == [z.anchor for z in m2.zones]
+
+
+def _room_file(tmp_path, world, edit):
+    from fallgen.fields import load_toml
+    from fallgen.world.rooms import parse_room
+
+    src = world.rooms["kitchen_galley"].file.read_text()
+    p = tmp_path / "kitchen_galley.toml"
+    p.write_text(edit(src))
+    return lambda: parse_room(load_toml(p), world.materials)
+
+
+@pytest.mark.parametrize("edit,field", [
+    (lambda s: s.replace('type = "rug", pos = [5.3, 1.8], size = [2.1, 2.5, 0.02]',
+                         'type = "rug", pos = [5.3, 1.8], size = [2.1, 2.5, 0.05]'), "].size"),
+    (lambda s: s.replace('along = 1.8, size = [3, 0.13, 2.3]',
+                         'along = 1.8, size = [3, 0.4, 2.3]'), "].size"),
+    (lambda s: s.replace('along = 1.8, size = [3, 0.13, 2.3]',
+                         'along = 1.8, size = [3, 0.13, 2.3], sets = ["m3"]'), "].sets"),
+    (lambda s: s.replace('along = 1.8, size = [3, 0.13, 2.3]',
+                         'along = 1.8, size = [3, 0.13, 2.3], sets = []'), "].sets"),
+])
+def test_bad_soft_furnishing_is_one_error(tmp_path, world, edit, field):
+    from fallgen.errors import InputError
+
+    parse = _room_file(tmp_path, world, edit)
+    with pytest.raises(InputError) as e:
+        parse()
+    assert "kitchen_galley.toml" in str(e.value) and field in str(e.value), str(e.value)
+
+
+def test_a_zone_on_an_item_a_set_lacks_is_an_error(tmp_path, world):
+    from fallgen.errors import InputError
+
+    parse = _room_file(tmp_path, world, lambda s: s.replace(
+        '{ id = "table", type = "dining_table", pos = [5.3, 1.8], yaw_deg = 90, '
+        'size = [1.2, 0.8, 0.75] }',
+        '{ id = "table", type = "dining_table", pos = [5.3, 1.8], yaw_deg = 90, '
+        'size = [1.2, 0.8, 0.75], sets = ["m2"] }', 1))
+    with pytest.raises(InputError) as e:
+        parse()
+    assert "kitchen_galley.toml" in str(e.value) and "table" in str(e.value)
+    assert "m1" in str(e.value), str(e.value)

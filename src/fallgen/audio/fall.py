@@ -25,7 +25,9 @@ simply supported at its edges, takes the energy of the impact in the coupled con
 surface radiates as an infinite plate of that mass per area, stiffness and loss factor
 driven by the contact force, its coincidence included
 (:func:`~fallgen.audio.impact.plate_pressure`); the finish (``impact_material``) sets the
-contact's stiffness and restitution. Two earlier stand-ins were wrong both ways: a free 2 cm
+contact's stiffness and restitution. A rug is a finish too: struck, the floor under it rings
+through the rug's soft contact (the rug itself, a compliant fabric slab, has no audible modes).
+Two earlier stand-ins were wrong both ways: a free 2 cm
 panel of the finish radiating as a compact body radiated nothing (a free plate's modes have no
 net volume displacement); the patch's modes radiating from its face (Rayleigh, baffled) put up
 to 22 % of a heavy glass's fall into sound on a board floor (a bounded patch's fundamental
@@ -193,6 +195,11 @@ class FallRenderer:
             mujoco.mj_forward(room.model, d)
             self._rooms[variant_id] = (room.model, d)
         return self._rooms[variant_id]
+
+    def _floor_coverings(self, variant_id: str) -> frozenset[str]:
+        """The ids of a variant's floor coverings (rugs): struck, the floor under them rings."""
+        return frozenset(it.id for it in self.world.variant(variant_id).furniture
+                         if it.floor_covering)
 
     # -- bodies ---------------------------------------------------------------------------
     def _ref(self, key: tuple, mesh, shell: ThinShell | None = None) -> ModalModel:
@@ -362,6 +369,10 @@ class FallRenderer:
                         face = c.other if c.other in ("floor", "ceiling") else \
                             c.other.split("_", 1)[1]
                         surface = world.variant(event.room_variant).surfaces[face]
+                    elif c.other in self._floor_coverings(event.room_variant):
+                        # a rug: the floor under it rings, struck through the rug (its
+                        # finish: a soft contact, a long and gentle force)
+                        surface = world.variant(event.room_variant).surfaces["floor"]
                     other = self._static_body(m, d, c.geom_other, c.material_other, c.other,
                                               surface)
                 others[c.geom_other] = other

@@ -37,6 +37,10 @@ ZONE_KINDS: tuple[str, ...] = (
     "pan",
 )
 
+#: Floor coverings (rugs) are at most this thick (m): the robot drives over them (its occupancy
+#: band starts above, :func:`fallgen.nav.occupancy.occupancy`) and other furniture stands on them.
+FLOOR_COVERING_MAX_M = 0.025
+
 #: Height of the settle volume above an open surface (m).
 SETTLE_HEIGHT_M = 0.25
 #: Inset of settle volumes from supporting edges (m).
@@ -85,6 +89,12 @@ class FurnitureType:
     #: Builds the item in its local frame. Parts carry their *role* in ``material``; the room
     #: loader replaces it with the role's material and colour.
     build: Callable[[float, float, float, Fields], FurnitureGeometry]
+    #: A floor covering (a rug): furniture may stand on it, zones may lie on it, the robot
+    #: drives over it; it offers no ``behind`` zone.
+    floor_covering: bool = False
+    #: Offers the strip between its back and the wall as a ``behind`` zone when placed clear
+    #: of the wall (curtains and rugs do not).
+    has_behind: bool = True
 
 
 def _box(name: str, lo: tuple[float, float, float], hi: tuple[float, float, float], material: str,
@@ -310,6 +320,26 @@ def _shelf(w, d, h, p: Fields) -> FurnitureGeometry:
     return FurnitureGeometry(tuple(parts), anchors)
 
 
+# --- soft furnishings ---------------------------------------------------------------------------
+
+def _rug(w, d, h, p: Fields) -> FurnitureGeometry:
+    """A loose rug: one slab of pile on the floor. Falls onto it land on it (a floor zone may
+    lie on it); it absorbs sound on its top face and hides the floor under it."""
+    if h > FLOOR_COVERING_MAX_M + 1e-9:
+        raise ValueError(f"a rug is at most {FLOOR_COVERING_MAX_M} m thick (got {h:g})")
+    return FurnitureGeometry((_box("pile", (-w / 2, -d / 2, 0.0), (w / 2, d / 2, h), "pile"),), {})
+
+
+def _curtain(w, d, h, p: Fields) -> FurnitureGeometry:
+    """Curtains drawn over a window, hung in folds: one slab from the wall to the front of the
+    folds (``d``, ~0.1-0.15 m; the absorption of curtains is measured so, per m^2 of their
+    front, the air behind them part of the absorber)."""
+    if d > 0.3:
+        raise ValueError(f"curtains hang within 0.3 m of the wall (depth {d:g})")
+    return FurnitureGeometry((_box("drape", (-w / 2, -d / 2, 0.0), (w / 2, d / 2, h), "drape"),),
+                             {})
+
+
 # --- containers ---------------------------------------------------------------------------------
 
 def _open_box(kind: str) -> Callable[..., FurnitureGeometry]:
@@ -383,6 +413,12 @@ FURNITURE: dict[str, FurnitureType] = {
                       _open_box("box")),
         FurnitureType("basket", "open wicker basket", {"body": "wood_soft"},
                       {"body": (0.76, 0.62, 0.38, 1.0)}, _open_box("basket")),
+        FurnitureType("rug", "loose rug on the floor (at most 2.5 cm thick; furniture may stand "
+                      "on it)", {"pile": "fabric/rug"}, {"pile": (0.55, 0.3, 0.25, 1.0)}, _rug,
+                      floor_covering=True, has_behind=False),
+        FurnitureType("curtain", "curtains drawn over a window, hung in folds against a wall "
+                      "(depth: wall to the folds' front)", {"drape": "fabric/drape"},
+                      {"drape": (0.75, 0.7, 0.6, 1.0)}, _curtain, has_behind=False),
     )
 }
 

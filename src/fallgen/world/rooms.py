@@ -42,7 +42,7 @@ SHOEBOX_FACES = ("west", "east", "south", "north", "floor", "ceiling")
 _ID = re.compile(r"^[a-z][a-z0-9_]*$")
 _ROOM_FIELDS = ("id", "kind", "name", "description", "size_m", "materials", "layouts")
 _FURN_FIELDS = ("id", "type", "size", "pos", "yaw_deg", "wall", "along", "gap", "z_m", "params",
-                "materials", "rgba")
+                "materials", "rgba", "sets")
 _ZONE_FIELDS = ("on", "rect", "distractors", "occluders", "drop_z")
 
 #: Drop regions stop this far below the ceiling or an obstruction (m).
@@ -62,6 +62,12 @@ class FurnitureItem:
     parts: tuple[Part, ...]
     anchors: Mapping[str, Anchor]
     wall: str | None = None
+    #: The material sets the item is in (a set's soft furnishings: rugs, curtains); None: all
+    sets: tuple[str, ...] | None = None
+
+    @property
+    def floor_covering(self) -> bool:
+        return FURNITURE[self.type].floor_covering
 
 
 @dataclass(frozen=True)
@@ -233,13 +239,16 @@ def _furniture(f: Fields, size_room, mats: MaterialLibrary) -> FurnitureItem:
                for k, a in geom.anchors.items()}
     # The strip between the item's back and the wall (or behind a free-standing item).
     behind_depth = gap if wall is not None else 0.3
-    if behind_depth >= 0.12 and z == 0.0:
+    if behind_depth >= 0.12 and z == 0.0 and spec.has_behind:
         w, d, h = size
         vol = Box.from_bounds((-w / 2 + 0.03, d / 2 + 0.02, 0.0),
                               (w / 2 - 0.03, d / 2 + behind_depth - 0.02, min(h, 0.4)))
         anchors["behind"] = Anchor("behind_furniture", vol.placed((x, y), yaw, z), "floor")
+    sets = tuple(_check_id(f, "sets", k) for k in f.strs("sets")) if "sets" in f else None
+    if sets is not None and not sets:
+        raise f.error("sets", "an item in no material set: list at least one, or leave it out")
     f.reject_unknown(_FURN_FIELDS)
-    return FurnitureItem(fid, ftype, pose, size, parts, anchors, wall)
+    return FurnitureItem(fid, ftype, pose, size, parts, anchors, wall, sets)
 
 
 def _drop_region(volume: Box, size_room, parts: _Footprints) -> tuple[Box, bool, str]:
@@ -285,7 +294,10 @@ class _Footprints:
 
 
 def _zones(fs: list[Fields], furniture: tuple[FurnitureItem, ...], size_room,
-           occluder_names: frozenset[str] | None) -> tuple[Zone, ...]:
+           occluder_names: frozenset[str] | None, material_set: str = "",
+           elsewhere: frozenset[str] = frozenset()) -> tuple[Zone, ...]:
+    """The zones of a layout over ``furniture``, its items in ``material_set``; ``elsewhere``:
+    the layout's items that set does not have (a zone on one is an error)."""
     by_id = {item.id: item for item in furniture}
     parts = _Footprints(furniture)
     lx, ly, _ = size_room
@@ -305,6 +317,9 @@ def _zones(fs: list[Fields], furniture: tuple[FurnitureItem, ...], size_room,
             if "rect" in f:
                 raise f.error("rect", "only floor zones take a rect")
             fid, _, aname = on.partition(".")
+            if fid in elsewhere:
+                raise f.error("on", f"furniture {fid!r} is not in material set {material_set} "
+                              "(its sets): a zone's furniture is in every set")
             if fid not in by_id:
                 raise f.error("on", f"no furniture {fid!r} in this layout")
             item = by_id[fid]
@@ -375,16 +390,28 @@ def parse_room(f: Fields, mats: MaterialLibrary,
                         or hi[2] > size[2] + 0.01:
                     raise InputError(f.file, f"{lf.path('furniture')}[{k}]",
                                      f"{it.id!r} part {p.name!r} sticks out of the room")
-        zones = _zones(lf.tables("zones"), items, size, object_names)
-        if not zones:
+        for k, it in enumerate(items):
+            unknown = [m for m in it.sets or () if m not in msets]
+            if unknown:
+                raise InputError(f.file, f"{lf.path('furniture')}[{k}].sets",
+                                 f"no material set {unknown[0]!r} ({', '.join(msets)})")
+        if not lf.tables("zones"):
             raise lf.error("zones", "a layout needs at least one fall zone")
-        lf.reject_unknown(("description", "furniture", "zones"))
+        by_sets: dict[tuple[str, ...], tuple[tuple[FurnitureItem, ...], tuple[Zone, ...]]] = {}
         for mid, faces in msets.items():
+            mine = tuple(it for it in items if it.sets is None or mid in it.sets)
+            key = tuple(it.id for it in mine)
+            if key not in by_sets:  # the layout's zones over the furniture this set has
+                others = frozenset(it.id for it in items) - frozenset(key)
+                by_sets[key] = (mine, _zones(lf.tables("zones"), mine, size, object_names,
+                                             mid, others))
+            mine, zones = by_sets[key]
             variants.append(RoomVariant(
                 id=f"{rid}-{lid}-{mid}", room=rid, kind=kind, name=name, layout=lid,
-                material_set=mid, size_m=size, surfaces=faces, furniture=items, zones=zones,
+                material_set=mid, size_m=size, surfaces=faces, furniture=mine, zones=zones,
                 file=f.file,
             ))
+        lf.reject_unknown(("description", "furniture", "zones"))
     if not variants:
         raise f.error("layouts", "at least one layout is required")
     f.reject_unknown(_ROOM_FIELDS)

@@ -23,6 +23,9 @@ TOLERANCE_M = 0.01
 ROBOT_RADIUS_M = 0.2
 #: Parts whose bottom is above this height do not block the robot (m).
 ROBOT_HEIGHT_M = 1.3
+#: Parts whose top is at most this high do not block the robot: it drives over them (rugs; the
+#: same band as the agent's occupancy grid, :func:`fallgen.nav.occupancy.occupancy`).
+ROBOT_STEP_M = 0.03
 #: Occupancy grid resolution for the navigability check (m).
 GRID_M = 0.05
 #: The paper's success radius: an object must be approachable within it (m).
@@ -52,7 +55,7 @@ def occupancy(variant: RoomVariant, grid_m: float = GRID_M, inflate_m: float = 0
     pts = np.stack([X.ravel(), Y.ravel(), np.zeros(X.size)], axis=1)
     occ = np.zeros(X.size, bool)
     for _, part in variant.parts():
-        if part.box.zmin >= height_m:
+        if part.box.zmin >= height_m or part.box.zmax <= ROBOT_STEP_M:
             continue
         flat = Box((part.box.center[0], part.box.center[1], 0.0),
                    (part.box.half[0], part.box.half[1], 1.0), part.box.yaw)
@@ -97,7 +100,7 @@ def check_variant(v: RoomVariant, min_free_area_m2: float = 3.0) -> list[str]:
             problems.append(f"{item.id}/{p.name} sticks out of the room")
     for i, (a, pa) in enumerate(parts):
         for b, pb in parts[i + 1:]:
-            if a.id == b.id:
+            if a.id == b.id or a.floor_covering or b.floor_covering:  # things stand on rugs
                 continue
             d = penetration(pa.box, pb.box)
             if d > TOLERANCE_M:
@@ -121,6 +124,8 @@ def check_variant(v: RoomVariant, min_free_area_m2: float = 3.0) -> list[str]:
             elif not footprint_inside(z.volume, sp.box, tol=TOLERANCE_M):
                 problems.append(f"{tag} overhangs its support {z.support}")
         for item, p in parts:
+            if item.floor_covering and z.support == "floor":  # a zone on a rug
+                continue
             if penetration(z.volume, p.box) > TOLERANCE_M:
                 problems.append(f"{tag} volume intersects {item.id}/{p.name}")
             if penetration(z.drop, p.box) > TOLERANCE_M:
