@@ -1,7 +1,8 @@
 """Loudness calibration: the dry sound (free field, 1 m, no room) of reference drops onto a
-parquet, a tiled and a floorboard floor, as the dataset renders them (the rehearsal's contact
-recorder, then :class:`fallgen.audio.fall.FallRenderer`). Prints a Markdown table (peak and
-loudest 125 ms Leq, dB SPL re 20 uPa, and the share of the fall's energy radiated).
+parquet, a tiled and a floorboard floor and a rug on tiles, as the dataset renders them (the
+rehearsal's contact recorder, then :class:`fallgen.audio.fall.FallRenderer`). Prints a Markdown
+table (peak and loudest 125 ms Leq, dB SPL re 20 uPa, and the share of the fall's energy
+radiated).
 
     python bench/loudness_table.py [--heights 0.75 1.5]
 """
@@ -34,24 +35,41 @@ OBJECTS = [
     ("golf ball", "golf_ball", "standard", "plastic_hard/golf_ball"),
     ("plastic toy car", "toy", "car", "plastic_hard"),
 ]
-#: (label, room variant): parquet on a slab, tiles on a slab, floorboards on joists
-FLOORS = [("wood parquet", "kitchen_galley-l1-m1"), ("ceramic tile", "kitchen_galley-l1-m2"),
-          ("floorboards", "kitchen_island-l1-m2")]
+#: (label, room variant, on its rug): parquet on a slab, tiles on a slab, floorboards on joists,
+#: a pile rug on tiles
+FLOORS = [("wood parquet", "kitchen_galley-l1-m1", False),
+          ("ceramic tile", "kitchen_galley-l1-m2", False),
+          ("floorboards", "kitchen_island-l1-m2", False),
+          ("rug on tiles", "kitchen_galley-l1-m2", True)]
+
+
+def _rug_spot(v) -> tuple[float, float]:
+    """A point on the variant's rug at least 0.3 m from any other part (and 0.25 m inside the
+    rug's edge)."""
+    rug = next(p.box for it in v.furniture if it.floor_covering for p in it.parts)
+    others = [p.box for it in v.furniture if not it.floor_covering for p in it.parts]
+    lo, hi = rug.aabb()
+    for x in np.linspace(lo[0] + 0.25, hi[0] - 0.25, 15):
+        for y in np.linspace(lo[1] + 0.25, hi[1] - 0.25, 15):
+            if not any(b.contains(np.array([[x, y, 0.3]]), tol=0.3)[0] for b in others):
+                return float(x), float(y)
+    raise ValueError(f"{v.id}: no clear spot on its rug")
 
 
 def drop(world, vid: str, category: str, variant: str, material: str, height: float,
-         steps: int = 1200) -> FallEvent:
+         steps: int = 1200, on_rug: bool = False) -> FallEvent:
     """The object let go, at rest, with its lowest point ``height`` above the floor, over the
-    centre of the variant's largest floor zone (open floor)."""
+    centre of the variant's largest floor zone (open floor), or over its rug."""
     v = world.variant(vid)
     z = max((z for z in v.zones if z.kind == "floor"),
             key=lambda z: z.volume.half[0] * z.volume.half[1])
+    xy = _rug_spot(v) if on_rug else (float(z.volume.center[0]), float(z.volume.center[1]))
     inst = world.categories.instance(category, variant, material, 1.0)
     quat = np.array([0.96, 0.2, 0.1, 0.15]) / np.linalg.norm([0.96, 0.2, 0.1, 0.15])
     mat = np.empty(9)
     mujoco.mju_quat2Mat(mat, quat)
     low = float((inst.geometry.vertices * inst.scale @ mat.reshape(3, 3).T)[:, 2].min())
-    pos = (float(z.volume.center[0]), float(z.volume.center[1]), height - low)
+    pos = (*xy, height - low)
     return record_drop(world, vid, z, ObjectSpec(category, variant, material, 1.0), pos, quat,
                        steps, event_id="cal")
 
@@ -65,9 +83,9 @@ def main() -> None:
     print("|---|---|---|---|---|---|")
     for label, cat, var, mat in OBJECTS:
         mass = world.categories.instance(cat, var, mat, 1.0).mass_kg
-        for floor, vid in FLOORS:
+        for floor, vid, on_rug in FLOORS:
             for h in args.heights:
-                ev = drop(world, vid, cat, var, mat, h)
+                ev = drop(world, vid, cat, var, mat, h, on_rug=on_rug)
                 p = renderer.render(ev, np.random.default_rng(0))
                 peak, leq = levels_db_spl(p[None, :], 44100)
                 ratio = radiated_energy_j(p, 44100) / renderer.energy_lost_j(ev)
