@@ -1,0 +1,325 @@
+"""Procedural textures for the rooms' surfaces and furniture: wood floors, tiles, plaster,
+stone, carpet, fabric, veneer, brushed metal.
+
+A texture is a pure function of its :class:`TextureSpec` (kind, physical size, parameters,
+seed): a square, seamlessly tileable image of ``size_m`` x ``size_m`` of surface, so that a
+renderer repeating it every ``size_m`` metres shows boards, tiles and grain at their real
+size. Randomness comes from ``numpy.random.SeedSequence`` over the spec's seed and a hash of
+its fields, never from a global generator; noise is made periodic by filtering white noise in
+the Fourier domain, so the image wraps without a seam.
+
+Images are *luminance patterns* around a mean of :data:`MEAN_LEVEL` (a slight warm or cool
+cast where the material has one): the renderer multiplies them by the surface's own colour
+(the room file's or material's ``rgba``), so one texture serves every colour of its kind.
+:func:`texture_file` writes a texture once as a PNG under a cache directory, keyed by the
+spec's hash.
+
+Parameters per kind (metres unless said; all optional, defaults in :data:`KINDS`):
+
+- ``planks``: board_width_m, board_length_m, seam (0..1 darkening), grain (0..1)
+- ``tiles``: tile_m, grout_m, grout (relative brightness of the grout, 0..2), variation
+- ``plaster``: roughness (0..1)
+- ``concrete``: roughness, pores (0..1)
+- ``brick``: brick_length_m, brick_height_m, mortar_m, variation
+- ``stone``: veins (0..1), scale_m (size of the veining)
+- ``carpet``: pile (0..1), mottle (0..1)
+- ``fabric``: weave_m (thread spacing), contrast (0..1)
+- ``veneer``: grain (0..1), figure_m (width of the growth rings' figure)
+- ``metal``: brushing (0..1)
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from fallgen.atomic import write_bytes
+
+#: Mean level of every texture (0..1): surface colour x texture ~ the colour itself.
+MEAN_LEVEL = 0.9
+#: Pixels per side of a texture image.
+DEFAULT_PX = 256
+
+
+@dataclass(frozen=True)
+class TextureSpec:
+    """What a texture is: its ``kind`` (a key of :data:`KINDS`), the square of surface it
+    spans (``size_m``), its parameters (sorted (name, value) pairs; :meth:`make` fills the
+    defaults and checks them) and a seed."""
+
+    kind: str
+    size_m: float
+    params: tuple[tuple[str, float], ...] = ()
+    seed: int = 0
+
+    @staticmethod
+    def make(kind: str, size_m: float | None = None, seed: int = 0,
+             **params: float) -> TextureSpec:
+        """A spec with the kind's defaults filled in; raises ``ValueError`` naming the bad
+        field (unknown kind or parameter, a value out of its range)."""
+        if kind not in KINDS:
+            raise ValueError(f"kind: unknown texture kind {kind!r} ({', '.join(sorted(KINDS))})")
+        k = KINDS[kind]
+        full = dict(k.defaults)
+        for name, value in params.items():
+            if name not in k.defaults:
+                raise ValueError(f"{name}: not a parameter of {kind} textures "
+                                 f"({', '.join(sorted(k.defaults))})")
+            lo, hi = k.ranges[name]
+            if not isinstance(value, (int, float)) or isinstance(value, bool) \
+                    or not (lo <= float(value) <= hi):
+                raise ValueError(f"{name}: {value!r} outside {lo:g}..{hi:g}")
+            full[name] = float(value)
+        size = k.default_size_m(full) if size_m is None else float(size_m)
+        if not (0.05 <= size <= 10.0):
+            raise ValueError(f"size_m: {size_m!r} outside 0.05..10 m")
+        if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
+            raise ValueError(f"seed: {seed!r} is not a non-negative integer")
+        return TextureSpec(kind, size, tuple(sorted(full.items())), seed)
+
+    @property
+    def param(self) -> Mapping[str, float]:
+        return dict(self.params)
+
+    def key(self) -> str:
+        """A stable hash of the spec (the cache's file name)."""
+        text = f"{self.kind}|{self.size_m!r}|{self.params!r}|{self.seed}"
+        return hashlib.sha256(text.encode()).hexdigest()[:20]
+
+    def rng(self) -> np.random.Generator:
+        words = [int(self.key()[i:i + 8], 16) for i in range(0, 16, 8)]
+        return np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=tuple(words)))
+
+
+@dataclass(frozen=True)
+class Kind:
+    draw: Callable[[TextureSpec, int, np.random.Generator], np.ndarray]
+    defaults: Mapping[str, float]
+    ranges: Mapping[str, tuple[float, float]]
+    #: the square a texture of these parameters spans by default (a whole number of its
+    #: repeating units: boards, tiles, bricks)
+    size: Callable[[Mapping[str, float]], float] = field(default=lambda p: 1.0)
+
+    def default_size_m(self, params: Mapping[str, float]) -> float:
+        return float(self.size(params))
+
+
+# --- building blocks -----------------------------------------------------------------------------
+
+def periodic_noise(rng: np.random.Generator, px: int, sigma_px: float | tuple[float, float]
+                   ) -> np.ndarray:
+    """(px, px) float32 noise of zero mean and unit standard deviation, smooth over
+    ``sigma_px`` pixels (a Gaussian kernel; a pair: (along y, along x)), periodic in both
+    axes (filtered in the Fourier domain)."""
+    sy, sx = (sigma_px, sigma_px) if np.isscalar(sigma_px) else sigma_px
+    white = rng.standard_normal((px, px))
+    fy = np.fft.fftfreq(px)[:, None]
+    fx = np.fft.fftfreq(px)[None, :]
+    kernel = np.exp(-2 * math.pi ** 2 * ((fy * sy) ** 2 + (fx * sx) ** 2))
+    n = np.fft.ifft2(np.fft.fft2(white) * kernel).real
+    s = n.std()
+    return ((n - n.mean()) / (s if s > 0 else 1.0)).astype(np.float32)
+
+
+def _to_image(level: np.ndarray, tint: tuple[float, float, float] = (1.0, 1.0, 1.0)
+              ) -> np.ndarray:
+    """A luminance field (mean ~0) around :data:`MEAN_LEVEL`, tinted, as (px, px, 3) uint8."""
+    rgb = (MEAN_LEVEL * (1.0 + level))[..., None] * np.asarray(tint, np.float32)
+    return np.clip(np.rint(rgb * 255.0), 0, 255).astype(np.uint8)
+
+
+def _units(size_m: float, unit_m: float) -> int:
+    """How many whole units of about ``unit_m`` fit in ``size_m`` (at least 1)."""
+    return max(1, int(round(size_m / unit_m)))
+
+
+# --- kinds ---------------------------------------------------------------------------------------
+
+def _planks(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
+    p = spec.param
+    n_boards = _units(spec.size_m, p["board_width_m"])
+    n_len = _units(spec.size_m, p["board_length_m"])
+    x = np.arange(px)
+    board = x * n_boards // px  # column -> board index
+    level = np.zeros((px, px), np.float32)
+    grain = periodic_noise(rng, px, (px / 16, 0.6))  # long streaks along y
+    fine = periodic_noise(rng, px, 0.7)
+    tone = rng.normal(0.0, 0.07, n_boards)
+    offset = rng.integers(0, px, n_boards)
+    level += tone[board][None, :]
+    level += p["grain"] * (0.09 * grain + 0.02 * fine)
+    seam_w = max(1, px // 256)
+    dark = p["seam"] * 0.35  # a joint is darker than both boards it parts
+    starts = (np.arange(n_boards) * px) // n_boards
+    for b in range(n_boards):
+        c0 = starts[b]
+        c1 = starts[b + 1] if b + 1 < n_boards else px
+        level[:, c0:c0 + seam_w] = min(tone[b], tone[b - 1]) - dark
+        for k in range(n_len):  # staggered end joints
+            r = (offset[b] + k * px // n_len) % px
+            level[r:r + seam_w, c0 + seam_w:c1] = tone[b] - dark
+    return _to_image(level, (1.0, 0.97, 0.93))
+
+
+def _tiles(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
+    p = spec.param
+    n = _units(spec.size_m, p["tile_m"])
+    idx = np.arange(px) * n // px
+    pos = (np.arange(px) * n / px) % 1.0  # position within a tile, 0..1
+    g = p["grout_m"] / (spec.size_m / n)  # grout as a share of a tile
+    tone = rng.normal(0.0, p["variation"], (n, n))
+    level = tone[idx[:, None], idx[None, :]] + 0.015 * periodic_noise(rng, px, 1.0)
+    in_grout = (pos[:, None] < g / 2) | (pos[:, None] > 1 - g / 2) | \
+        (pos[None, :] < g / 2) | (pos[None, :] > 1 - g / 2)
+    level = np.where(in_grout, p["grout"] - 1.0 + 0.03 * periodic_noise(rng, px, 0.8), level)
+    return _to_image(level.astype(np.float32))
+
+
+def _plaster(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
+    r = spec.param["roughness"]
+    level = r * (0.035 * periodic_noise(rng, px, 0.8) + 0.03 * periodic_noise(rng, px, px / 24))
+    return _to_image(level)
+
+
+def _concrete(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
+    p = spec.param
+    level = p["roughness"] * (0.05 * periodic_noise(rng, px, 1.0)
+                              + 0.06 * periodic_noise(rng, px, px / 20))
+    pores = periodic_noise(rng, px, 1.2) > 3.0 - p["pores"]
+    level = np.where(pores, level - 0.25, level)
+    return _to_image(level.astype(np.float32), (1.0, 1.0, 0.98))
+
+
+def _brick(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
+    p = spec.param
+    rows = _units(spec.size_m, p["brick_height_m"] + p["mortar_m"])
+    cols = _units(spec.size_m, p["brick_length_m"] + p["mortar_m"])
+    y = np.arange(px) * rows / px
+    x = np.arange(px) * cols / px
+    row = y.astype(int)
+    xs = (x[None, :] + 0.5 * (row[:, None] % 2)) % cols  # running bond
+    col = xs.astype(int)
+    tone = rng.normal(0.0, p["variation"], (rows, cols))
+    level = tone[row[:, None], col] + 0.05 * periodic_noise(rng, px, 1.0)
+    my = p["mortar_m"] / (spec.size_m / rows)
+    mx = p["mortar_m"] / (spec.size_m / cols)
+    mortar = ((y % 1.0)[:, None] < my) | ((xs % 1.0) < mx)
+    level = np.where(mortar, 0.15 + 0.03 * periodic_noise(rng, px, 0.8), level)
+    return _to_image(level.astype(np.float32), (1.0, 0.9, 0.85))
+
+
+def _stone(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
+    p = spec.param
+    k = max(1, int(round(spec.size_m / p["scale_m"])))
+    u = np.arange(px) / px
+    turb = periodic_noise(rng, px, px / (6 * k)) * 1.6 + periodic_noise(rng, px, px / (20 * k))
+    phase = 2 * math.pi * k * (u[None, :] + 0.5 * u[:, None]) + 2.5 * turb
+    veins = np.abs(np.sin(phase)) ** 0.25  # 0 at a vein, 1 between
+    level = p["veins"] * 0.22 * (veins - 1.0) + 0.04 * periodic_noise(rng, px, px / 32) \
+        + 0.015 * periodic_noise(rng, px, 0.8)
+    return _to_image(level.astype(np.float32))
+
+
+def _carpet(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
+    p = spec.param
+    level = p["pile"] * 0.10 * periodic_noise(rng, px, 0.5) \
+        + p["mottle"] * 0.06 * periodic_noise(rng, px, px / 16)
+    return _to_image(level)
+
+
+def _fabric(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
+    p = spec.param
+    threads = max(2, int(round(spec.size_m / p["weave_m"])))
+    threads = min(threads, px // 3)  # at least 3 pixels a thread
+    u = np.arange(px) * threads / px
+    warp = np.sin(2 * math.pi * u)[None, :]
+    weft = np.sin(2 * math.pi * u)[:, None]
+    checker = np.where((u.astype(int)[:, None] + u.astype(int)[None, :]) % 2 == 0, warp, weft)
+    level = p["contrast"] * 0.08 * checker + 0.03 * periodic_noise(rng, px, px / 24)
+    return _to_image(level.astype(np.float32))
+
+
+def _veneer(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
+    p = spec.param
+    k = max(1, int(round(spec.size_m / p["figure_m"])))
+    u = np.arange(px) / px
+    warp = periodic_noise(rng, px, (px / 8, px / 40))
+    rings = np.sin(2 * math.pi * k * (u[None, :] + 0.04 * warp)) * np.ones((px, 1))
+    streaks = periodic_noise(rng, px, (px / 10, 0.7))
+    level = p["grain"] * (0.05 * rings + 0.05 * streaks)
+    return _to_image(level.astype(np.float32), (1.0, 0.97, 0.93))
+
+
+def _metal(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
+    b = spec.param["brushing"]
+    level = b * 0.06 * periodic_noise(rng, px, (0.5, px / 6)) \
+        + 0.01 * periodic_noise(rng, px, px / 16)
+    return _to_image(level, (0.98, 0.99, 1.0))
+
+
+KINDS: dict[str, Kind] = {
+    "planks": Kind(_planks, {"board_width_m": 0.14, "board_length_m": 1.2, "seam": 0.6,
+                             "grain": 1.0},
+                   {"board_width_m": (0.04, 0.4), "board_length_m": (0.2, 5.0),
+                    "seam": (0.0, 1.0), "grain": (0.0, 2.0)},
+                   lambda p: 8 * p["board_width_m"]),
+    "tiles": Kind(_tiles, {"tile_m": 0.3, "grout_m": 0.004, "grout": 0.75, "variation": 0.02},
+                  {"tile_m": (0.02, 1.5), "grout_m": (0.0, 0.02), "grout": (0.0, 2.0),
+                   "variation": (0.0, 0.2)},
+                  lambda p: 4 * p["tile_m"]),
+    "plaster": Kind(_plaster, {"roughness": 1.0}, {"roughness": (0.0, 3.0)}, lambda p: 1.0),
+    "concrete": Kind(_concrete, {"roughness": 1.0, "pores": 0.3},
+                     {"roughness": (0.0, 3.0), "pores": (0.0, 1.0)}, lambda p: 1.0),
+    "brick": Kind(_brick, {"brick_length_m": 0.215, "brick_height_m": 0.065, "mortar_m": 0.01,
+                           "variation": 0.06},
+                  {"brick_length_m": (0.1, 0.5), "brick_height_m": (0.03, 0.3),
+                   "mortar_m": (0.0, 0.03), "variation": (0.0, 0.3)},
+                  lambda p: 4 * (p["brick_length_m"] + p["mortar_m"])),
+    "stone": Kind(_stone, {"veins": 1.0, "scale_m": 0.4},
+                  {"veins": (0.0, 2.0), "scale_m": (0.05, 2.0)}, lambda p: 2 * p["scale_m"]),
+    "carpet": Kind(_carpet, {"pile": 1.0, "mottle": 1.0},
+                   {"pile": (0.0, 2.0), "mottle": (0.0, 2.0)}, lambda p: 0.5),
+    "fabric": Kind(_fabric, {"weave_m": 0.004, "contrast": 1.0},
+                   {"weave_m": (0.001, 0.05), "contrast": (0.0, 2.0)}, lambda p: 0.25),
+    "veneer": Kind(_veneer, {"grain": 1.0, "figure_m": 0.12},
+                   {"grain": (0.0, 2.0), "figure_m": (0.01, 1.0)}, lambda p: 0.6),
+    "metal": Kind(_metal, {"brushing": 1.0}, {"brushing": (0.0, 2.0)}, lambda p: 0.5),
+}
+
+
+def render_texture(spec: TextureSpec, px: int = DEFAULT_PX) -> np.ndarray:
+    """The texture's image, (px, px, 3) uint8, RGB, tileable; the same bytes for the same
+    spec and size."""
+    if px < 16 or px & (px - 1):
+        raise ValueError(f"px: {px} is not a power of two >= 16")
+    return KINDS[spec.kind].draw(spec, px, spec.rng())
+
+
+def texture_file(spec: TextureSpec, cache_dir: str | Path, px: int = DEFAULT_PX) -> Path:
+    """The texture as a PNG under ``cache_dir`` (made once; its name is the spec's hash and
+    the size)."""
+    d = Path(cache_dir)
+    path = d / f"{spec.kind}-{spec.key()}-{px}.png"
+    if not path.exists():
+        d.mkdir(parents=True, exist_ok=True)
+        ok, png = cv2.imencode(".png", cv2.cvtColor(render_texture(spec, px), cv2.COLOR_RGB2BGR))
+        if not ok:
+            raise OSError(f"{path}: could not encode the texture as PNG")
+        write_bytes(path, png.tobytes())  # atomic: a reader never sees half a file
+    return path
+
+
+def detail_share(rgb: np.ndarray, threshold: float = 3.0, window: int = 5) -> float:
+    """The share of pixels with local detail: grey-level standard deviation above
+    ``threshold`` (0-255 scale) in a ``window`` x ``window`` neighbourhood (issue 29's
+    measure of a view)."""
+    g = cv2.cvtColor(np.ascontiguousarray(rgb), cv2.COLOR_RGB2GRAY).astype(np.float32)
+    mu = cv2.blur(g, (window, window))
+    sd = np.sqrt(np.maximum(cv2.blur(g * g, (window, window)) - mu * mu, 0.0))
+    return float((sd > threshold).mean())
