@@ -7,14 +7,8 @@ import cv2
 import numpy as np
 import pytest
 
-from fallgen.vision.textures import (
-    KINDS,
-    MEAN_LEVEL,
-    TextureSpec,
-    detail_share,
-    render_texture,
-    texture_file,
-)
+from fallgen.vision.textures import MEAN_LEVEL, detail_share, render_texture, texture_file
+from fallgen.world.appearance import KINDS, TextureSpec
 
 
 @pytest.mark.parametrize("kind", sorted(KINDS))

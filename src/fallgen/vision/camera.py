@@ -29,6 +29,9 @@ from fallgen.world.scene import WALL_OWNERS, Scene
 
 WIDTH = HEIGHT = 300
 FOV_DEG = 90.0
+#: Shadow map size (pixels a side) where the scene's lights cast shadows: ~3 shadow texels
+#: per image pixel of a 300 px view of a room (MuJoCo's default 4096 costs ~40 ms a context).
+SHADOW_MAP_PX = 1024
 #: How far (pixels) beyond the projected outline of an object's boxes a drawn pixel's centre may
 #: lie: float32 rounding in the renderer's projection is ~1e-4 pixel; tests/vision checks
 #: that the bound holds over thousands of random views.
@@ -103,8 +106,7 @@ class EgoCamera:
         # shadows: the same pixels, but a context made 4x faster (the default 640 x 480
         # multisampled buffer and 4096^2 shadow map cost ~40 ms per scene on a CPU renderer).
         m.vis.global_.offwidth = m.vis.global_.offheight = size
-        if not m.light_castshadow.any():
-            m.vis.quality.shadowsize = 0
+        m.vis.quality.shadowsize = SHADOW_MAP_PX if m.light_castshadow.any() else 0
         # room for every geom and site the default options draw, twice over (a scene's
         # arrays cost ~2 us a slot to make; SceneFrames refuses a full scene)
         self.frames = SceneFrames(m, context, max_geom=2 * (m.ngeom + m.nsite) + 64)

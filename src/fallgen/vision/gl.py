@@ -64,6 +64,15 @@ class SceneFrames:
             self._con.free()
             self._con = None
 
+    def __del__(self) -> None:
+        # A context dropped without close() would be freed by the garbage collector under
+        # whatever GL context is current then, deleting that context's textures and buffers
+        # (another camera's: its segmentation then read texture colours). Free it in its own.
+        try:
+            self.close()
+        except Exception:  # interpreter shutdown: GL may be gone
+            pass
+
     def _draw(self, data: mujoco.MjData, camera: mujoco.MjvCamera, ids: bool,
               crop: tuple[int, int, int, int] | None = None,
               read: tuple[int, int, int, int] | None = None) -> mujoco.MjrRect:
@@ -92,6 +101,9 @@ class SceneFrames:
         # depth is more accurate far away)
         flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = ids
         flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = ids
+        # shadows only in colour: a segment or depth draw has no use for the lights' depth
+        # passes (one per shadow-casting light)
+        flags[mujoco.mjtRndFlag.mjRND_SHADOW] = not ids
         rect = self._rect
         if crop is not None:
             r0, r1, c0, c1 = crop

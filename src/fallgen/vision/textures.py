@@ -14,100 +14,26 @@ cast where the material has one): the renderer multiplies them by the surface's 
 :func:`texture_file` writes a texture once as a PNG under a cache directory, keyed by the
 spec's hash.
 
-Parameters per kind (metres unless said; all optional, defaults in :data:`KINDS`):
-
-- ``planks``: board_width_m, board_length_m, seam (0..1 darkening), grain (0..1)
-- ``tiles``: tile_m, grout_m, grout (relative brightness of the grout, 0..2), variation
-- ``plaster``: roughness (0..1)
-- ``concrete``: roughness, pores (0..1)
-- ``brick``: brick_length_m, brick_height_m, mortar_m, variation
-- ``stone``: veins (0..1), scale_m (size of the veining)
-- ``carpet``: pile (0..1), mottle (0..1)
-- ``fabric``: weave_m (thread spacing), contrast (0..1)
-- ``veneer``: grain (0..1), figure_m (width of the growth rings' figure)
-- ``metal``: brushing (0..1)
+Kinds, parameters and their ranges: :mod:`fallgen.world.appearance`.
 """
 
 from __future__ import annotations
 
-import hashlib
+import functools
 import math
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from collections.abc import Callable
 from pathlib import Path
 
 import cv2
 import numpy as np
 
 from fallgen.atomic import write_bytes
+from fallgen.world.appearance import TextureSpec
 
 #: Mean level of every texture (0..1): surface colour x texture ~ the colour itself.
 MEAN_LEVEL = 0.9
 #: Pixels per side of a texture image.
 DEFAULT_PX = 256
-
-
-@dataclass(frozen=True)
-class TextureSpec:
-    """What a texture is: its ``kind`` (a key of :data:`KINDS`), the square of surface it
-    spans (``size_m``), its parameters (sorted (name, value) pairs; :meth:`make` fills the
-    defaults and checks them) and a seed."""
-
-    kind: str
-    size_m: float
-    params: tuple[tuple[str, float], ...] = ()
-    seed: int = 0
-
-    @staticmethod
-    def make(kind: str, size_m: float | None = None, seed: int = 0,
-             **params: float) -> TextureSpec:
-        """A spec with the kind's defaults filled in; raises ``ValueError`` naming the bad
-        field (unknown kind or parameter, a value out of its range)."""
-        if kind not in KINDS:
-            raise ValueError(f"kind: unknown texture kind {kind!r} ({', '.join(sorted(KINDS))})")
-        k = KINDS[kind]
-        full = dict(k.defaults)
-        for name, value in params.items():
-            if name not in k.defaults:
-                raise ValueError(f"{name}: not a parameter of {kind} textures "
-                                 f"({', '.join(sorted(k.defaults))})")
-            lo, hi = k.ranges[name]
-            if not isinstance(value, (int, float)) or isinstance(value, bool) \
-                    or not (lo <= float(value) <= hi):
-                raise ValueError(f"{name}: {value!r} outside {lo:g}..{hi:g}")
-            full[name] = float(value)
-        size = k.default_size_m(full) if size_m is None else float(size_m)
-        if not (0.05 <= size <= 10.0):
-            raise ValueError(f"size_m: {size_m!r} outside 0.05..10 m")
-        if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
-            raise ValueError(f"seed: {seed!r} is not a non-negative integer")
-        return TextureSpec(kind, size, tuple(sorted(full.items())), seed)
-
-    @property
-    def param(self) -> Mapping[str, float]:
-        return dict(self.params)
-
-    def key(self) -> str:
-        """A stable hash of the spec (the cache's file name)."""
-        text = f"{self.kind}|{self.size_m!r}|{self.params!r}|{self.seed}"
-        return hashlib.sha256(text.encode()).hexdigest()[:20]
-
-    def rng(self) -> np.random.Generator:
-        words = [int(self.key()[i:i + 8], 16) for i in range(0, 16, 8)]
-        return np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=tuple(words)))
-
-
-@dataclass(frozen=True)
-class Kind:
-    draw: Callable[[TextureSpec, int, np.random.Generator], np.ndarray]
-    defaults: Mapping[str, float]
-    ranges: Mapping[str, tuple[float, float]]
-    #: the square a texture of these parameters spans by default (a whole number of its
-    #: repeating units: boards, tiles, bricks)
-    size: Callable[[Mapping[str, float]], float] = field(default=lambda p: 1.0)
-
-    def default_size_m(self, params: Mapping[str, float]) -> float:
-        return float(self.size(params))
 
 
 # --- building blocks -----------------------------------------------------------------------------
@@ -183,7 +109,10 @@ def _tiles(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
 
 def _plaster(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
     r = spec.param["roughness"]
-    level = r * (0.035 * periodic_noise(rng, px, 0.8) + 0.03 * periodic_noise(rng, px, px / 24))
+    # a trowelled, painted finish: grain at ~1 cm (what a view 2-4 m away still resolves)
+    # over broad, faint clouding
+    level = r * (0.02 * periodic_noise(rng, px, 0.8) + 0.045 * periodic_noise(rng, px, px / 96)
+                 + 0.03 * periodic_noise(rng, px, px / 24))
     return _to_image(level)
 
 
@@ -228,7 +157,9 @@ def _stone(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
 
 def _carpet(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
     p = spec.param
-    level = p["pile"] * 0.10 * periodic_noise(rng, px, 0.5) \
+    # tufts at ~1 cm (what a view still resolves) over fine pile and broad mottling
+    level = p["pile"] * (0.06 * periodic_noise(rng, px, 0.5)
+                         + 0.06 * periodic_noise(rng, px, px / 128)) \
         + p["mottle"] * 0.06 * periodic_noise(rng, px, px / 16)
     return _to_image(level)
 
@@ -242,6 +173,11 @@ def _fabric(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
     weft = np.sin(2 * math.pi * u)[:, None]
     checker = np.where((u.astype(int)[:, None] + u.astype(int)[None, :]) % 2 == 0, warp, weft)
     level = p["contrast"] * 0.08 * checker + 0.03 * periodic_noise(rng, px, px / 24)
+    if p["folds"] > 0:  # hung in folds: light and shade across them, along the image's x
+        n_folds = max(1, int(round(spec.size_m / p["fold_m"])))
+        u = np.arange(px) / px
+        wobble = 0.15 * periodic_noise(rng, px, (px / 4, px / 16))
+        level = level + p["folds"] * 0.18 * np.sin(2 * math.pi * (n_folds * u[None, :] + wobble))
     return _to_image(level.astype(np.float32))
 
 
@@ -263,33 +199,11 @@ def _metal(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
     return _to_image(level, (0.98, 0.99, 1.0))
 
 
-KINDS: dict[str, Kind] = {
-    "planks": Kind(_planks, {"board_width_m": 0.14, "board_length_m": 1.2, "seam": 0.6,
-                             "grain": 1.0},
-                   {"board_width_m": (0.04, 0.4), "board_length_m": (0.2, 5.0),
-                    "seam": (0.0, 1.0), "grain": (0.0, 2.0)},
-                   lambda p: 8 * p["board_width_m"]),
-    "tiles": Kind(_tiles, {"tile_m": 0.3, "grout_m": 0.004, "grout": 0.75, "variation": 0.02},
-                  {"tile_m": (0.02, 1.5), "grout_m": (0.0, 0.02), "grout": (0.0, 2.0),
-                   "variation": (0.0, 0.2)},
-                  lambda p: 4 * p["tile_m"]),
-    "plaster": Kind(_plaster, {"roughness": 1.0}, {"roughness": (0.0, 3.0)}, lambda p: 1.0),
-    "concrete": Kind(_concrete, {"roughness": 1.0, "pores": 0.3},
-                     {"roughness": (0.0, 3.0), "pores": (0.0, 1.0)}, lambda p: 1.0),
-    "brick": Kind(_brick, {"brick_length_m": 0.215, "brick_height_m": 0.065, "mortar_m": 0.01,
-                           "variation": 0.06},
-                  {"brick_length_m": (0.1, 0.5), "brick_height_m": (0.03, 0.3),
-                   "mortar_m": (0.0, 0.03), "variation": (0.0, 0.3)},
-                  lambda p: 4 * (p["brick_length_m"] + p["mortar_m"])),
-    "stone": Kind(_stone, {"veins": 1.0, "scale_m": 0.4},
-                  {"veins": (0.0, 2.0), "scale_m": (0.05, 2.0)}, lambda p: 2 * p["scale_m"]),
-    "carpet": Kind(_carpet, {"pile": 1.0, "mottle": 1.0},
-                   {"pile": (0.0, 2.0), "mottle": (0.0, 2.0)}, lambda p: 0.5),
-    "fabric": Kind(_fabric, {"weave_m": 0.004, "contrast": 1.0},
-                   {"weave_m": (0.001, 0.05), "contrast": (0.0, 2.0)}, lambda p: 0.25),
-    "veneer": Kind(_veneer, {"grain": 1.0, "figure_m": 0.12},
-                   {"grain": (0.0, 2.0), "figure_m": (0.01, 1.0)}, lambda p: 0.6),
-    "metal": Kind(_metal, {"brushing": 1.0}, {"brushing": (0.0, 2.0)}, lambda p: 0.5),
+#: How each kind is drawn (its parameters: :data:`fallgen.world.appearance.KINDS`).
+DRAW: dict[str, Callable[[TextureSpec, int, np.random.Generator], np.ndarray]] = {
+    "planks": _planks, "tiles": _tiles, "plaster": _plaster, "concrete": _concrete,
+    "brick": _brick, "stone": _stone, "carpet": _carpet, "fabric": _fabric, "veneer": _veneer,
+    "metal": _metal,
 }
 
 
@@ -298,7 +212,15 @@ def render_texture(spec: TextureSpec, px: int = DEFAULT_PX) -> np.ndarray:
     spec and size."""
     if px < 16 or px & (px - 1):
         raise ValueError(f"px: {px} is not a power of two >= 16")
-    return KINDS[spec.kind].draw(spec, px, spec.rng())
+    return DRAW[spec.kind](spec, px, spec.rng())
+
+
+@functools.lru_cache(maxsize=64)
+def texture_bytes(spec: TextureSpec, px: int = DEFAULT_PX) -> tuple[int, int, int, bytes]:
+    """(width, height, channels, RGB bytes) of the texture, as a MuJoCo texture takes them;
+    drawn once per process."""
+    img = render_texture(spec, px)
+    return img.shape[1], img.shape[0], 3, img.tobytes()
 
 
 def texture_file(spec: TextureSpec, cache_dir: str | Path, px: int = DEFAULT_PX) -> Path:

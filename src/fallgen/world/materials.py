@@ -24,6 +24,7 @@ from typing import Any
 
 from fallgen.errors import InputError
 from fallgen.fields import Fields, load_toml
+from fallgen.world.appearance import TextureSpec, parse_texture
 
 #: The paper's 14 audio materials, in the paper's order.
 AUDIO_MATERIALS: tuple[str, ...] = (
@@ -66,6 +67,7 @@ _OBJECT_FIELDS = (
     "scattering",
     "absorption_per",
     "rgba",
+    "texture",
     "sources",
     "grades",
 )
@@ -83,6 +85,7 @@ _GRADE_FIELDS = (
     "scattering",
     "absorption_per",
     "rgba",
+    "texture",
     "sources",
 )
 _SURFACE_FIELDS = (
@@ -96,6 +99,7 @@ _SURFACE_FIELDS = (
     "friction_sliding",
     "uses",
     "rgba",
+    "texture",
     "sources",
 )
 
@@ -135,6 +139,8 @@ class ObjectMaterial:
     #: "seating_area" (each m^2 of an upholstered item's acoustical area: its footprint plus
     #: a 0.5 m strip along its free edges, as seating absorption is measured and tabled)
     absorption_per: str = "surface"
+    #: how a furniture part of the material looks (its colour tints it); None: flat colour
+    texture: TextureSpec | None = None
 
     @property
     def contact_modulus_pa(self) -> float:
@@ -178,6 +184,8 @@ class SurfaceMaterial:
     #: the structure's bending stiffness across its stiffer direction over along it (1: an
     #: isotropic slab, board or pane; ~0.06: solid timber boards, E_T / E_L)
     structure_stiffness_ratio: float = 1.0
+    #: how the surface looks (its colour tints it); None: flat colour
+    texture: TextureSpec | None = None
 
 
 @dataclass(frozen=True)
@@ -293,6 +301,7 @@ def parse_object_materials(f: Fields) -> dict[str, ObjectMaterial]:
             friction_torsional_m=m.float("friction_torsional_m", lo=0.0, hi=0.1),
             friction_rolling_m=m.float("friction_rolling_m", lo=0.0, hi=0.1),
             rgba=_rgba(m),
+            texture=parse_texture(m) if "texture" in m else None,
             sources=_sources(m),
         )
         out[name] = base
@@ -306,6 +315,7 @@ def parse_object_materials(f: Fields) -> dict[str, ObjectMaterial]:
                     name=ref,
                     description=g.str("description"),
                     rgba=_rgba(g, base.rgba),
+                    texture=parse_texture(g) if "texture" in g else base.texture,
                     sources=_sources(g),
                     **_elastic(g, base),
                     **_acoustic(g, base),
@@ -345,6 +355,7 @@ def parse_surface_materials(f: Fields, objects: Mapping[str, ObjectMaterial]) ->
             friction_sliding=s.float("friction_sliding", lo=0.0, hi=3.0),
             uses=uses,
             rgba=_rgba(s),
+            texture=parse_texture(s) if "texture" in s else None,
             sources=_sources(s),
         )
         s.reject_unknown(_SURFACE_FIELDS)
