@@ -31,7 +31,7 @@ from fallgen.vision.camera import EgoCamera  # noqa: E402
 from fallgen.vision.gl import GLContext  # noqa: E402
 from fallgen.vision.textures import detail_share  # noqa: E402
 from fallgen.world.library import load_world  # noqa: E402
-from fallgen.world.scene import VIEW, PhysicsSettings, build_scene  # noqa: E402
+from fallgen.world.scene import LOOK, PhysicsSettings, build_scene  # noqa: E402
 
 FLAT = PhysicsSettings(collision_meshes=False)
 #: the before/after pictures: (variant, pose)
@@ -65,7 +65,7 @@ def main() -> None:
     poses = _free_poses(world, np.random.default_rng(args.seed), args.views)
     ctx = GLContext(300)
     result: dict[str, dict] = {}
-    for tag, settings in (("flat", FLAT), ("textured", VIEW)):
+    for tag, settings in (("flat", FLAT), ("textured", LOOK)):
         shares, render_s, scene_s = [], 0.0, 0.0
         for vid, pose in poses:
             t0 = time.perf_counter()
@@ -89,7 +89,7 @@ def main() -> None:
         rows = []
         for vid, pose in SHOWN:
             pair = []
-            for settings in (FLAT, VIEW):
+            for settings in (FLAT, LOOK):
                 scene = build_scene(world.variant(vid), world.materials, settings=settings)
                 d = scene.data()
                 mujoco.mj_forward(scene.model, d)

@@ -89,6 +89,26 @@ def test_episode_depends_only_on_its_id(maker, events, episodes):
     assert other.spawn != ep.spawn
 
 
+def test_appearance_changes_only_the_colours(maker, world, events, episodes):
+    """``appearance=True`` (textures, a shadow-casting light): the same episode (spawn,
+    audio, expert), the same segmentation and depth (to float rounding) at step 0, and an RGB
+    view with more detail."""
+    from fallgen.vision.textures import detail_share
+
+    ep = episodes[0]
+    i = next(k for k, e in enumerate(events) if e is ep.event)
+    look = EpisodeMaker(world, maker.binaural, rir=maker.rir, appearance=True)
+    try:
+        again = look.make(ep.episode_id, events[i], 11)
+    finally:
+        look.close()
+    assert again.spawn == ep.spawn and again.expert.plan.actions == ep.expert.plan.actions
+    assert np.array_equal(again.audio.audio, ep.audio.audio)
+    assert np.array_equal(again.view.instance, ep.view.instance)
+    np.testing.assert_allclose(again.view.depth, ep.view.depth, atol=1e-4)
+    assert detail_share(again.view.rgb) > detail_share(ep.view.rgb)
+
+
 def test_a_fall_too_quiet_to_hear_starts_no_episode(maker, events, episodes):
     """``min_heard_peak_db_spl``: an episode whose fall peaks below it at the agent is skipped
     ("inaudible"; the shard tries the episode's next event); at or under the heard level it

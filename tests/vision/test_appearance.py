@@ -13,7 +13,7 @@ import pytest
 from fallgen.nav.agent import Pose
 from fallgen.vision.camera import EgoCamera
 from fallgen.vision.textures import detail_share
-from fallgen.world.scene import VIEW, PhysicsSettings, build_scene
+from fallgen.world.scene import LOOK, PhysicsSettings, build_scene
 
 FLAT = PhysicsSettings(collision_meshes=False)
 VARIANT = "kitchen_dining-l1-m2"  # tiles, concrete, a rug, curtains, veneer and stone
@@ -33,7 +33,7 @@ def _views(world, settings, what="all"):
 
 @pytest.fixture(scope="module")
 def flat_and_look(world):
-    return _views(world, FLAT), _views(world, VIEW)
+    return _views(world, FLAT), _views(world, LOOK)
 
 
 def test_segmentation_and_depth_are_the_flat_scenes(flat_and_look):
@@ -51,7 +51,7 @@ def test_textured_views_have_detail_and_are_deterministic(world, flat_and_look):
     d_flat = np.mean([detail_share(v.rgb) for v in flat])
     d_look = np.mean([detail_share(v.rgb) for v in look])
     assert d_look > 2 * d_flat and d_look > 0.25, (d_flat, d_look)
-    again = _views(world, VIEW, "rgb")
+    again = _views(world, LOOK, "rgb")
     assert all(np.array_equal(a.rgb, b.rgb) for a, b in zip(look, again))
 
 
@@ -66,7 +66,7 @@ def test_a_shadow_darkens_the_floor_under_the_table(world):
     pose = Pose(table.pose[0], table.pose[1] - 1.6, 3, -45)  # south of it, facing north
 
     def view(shadows: bool):
-        spec, info = build_spec(v, world.materials, settings=VIEW)
+        spec, info = build_spec(v, world.materials, settings=LOOK)
         for light in spec.lights:
             light.castshadow = light.castshadow and shadows
         m = spec.compile()
@@ -102,7 +102,7 @@ def test_a_dropped_camera_frees_its_gl_objects_in_its_own_context(world):
     d = first.data()
     mujoco.mj_forward(first.model, d)
     cam.render(d, POSES[0])
-    second = build_scene(v, world.materials, settings=VIEW)
+    second = build_scene(v, world.materials, settings=LOOK)
     cam2 = EgoCamera(second)
     d2 = second.data()
     mujoco.mj_forward(second.model, d2)

@@ -111,8 +111,9 @@ class EpisodeMaker:
 
     def __init__(self, world: World, binaural: Binaural, spec: AgentSpec = AgentSpec(),
                  rir: RirSettings = RirSettings(), noise_db_a: float = DEFAULT_NOISE_DB_A,
-                 min_heard_peak_db_spl: float = 0.0) -> None:
+                 min_heard_peak_db_spl: float = 0.0, appearance: bool = False) -> None:
         self.world, self.binaural, self.spec, self.rir = world, binaural, spec, rir
+        self.appearance = appearance  # views with textures and shadows (world.scene.LOOK)
         self.min_heard_peak_db_spl = min_heard_peak_db_spl
         self.noise_db_a = noise_db_a
         self.sounds = FallRenderer(world)
@@ -145,7 +146,8 @@ class EpisodeMaker:
         if self._gl is None:
             self._gl = GLContext(WIDTH)
         settled = SettledRoom(world, event, self._gl, self.labels, spec,
-                           self._room_samples.get(event.room_variant))
+                              self._room_samples.get(event.room_variant),
+                              appearance=self.appearance)
         self._room_samples[event.room_variant] = settled.static
         variant, target = settled.variant, _instance(world, event.target)
         data, camera, grid = settled.data, settled.camera, settled.grid

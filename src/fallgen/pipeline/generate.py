@@ -166,7 +166,8 @@ def _maker(world: World, cfg: BuildConfig) -> EpisodeMaker:
     return EpisodeMaker(world, Binaural(hrtf),
                         rir=RirSettings(g.image_source_order, 44100, g.audio_s),
                         noise_db_a=g.ambient_noise_db_a,
-                        min_heard_peak_db_spl=g.min_heard_peak_db_spl)
+                        min_heard_peak_db_spl=g.min_heard_peak_db_spl,
+                        appearance=g.appearance)
 
 
 def make_shard(world: World, maker: EpisodeMaker, cfg: BuildConfig, job: ShardJob,

@@ -26,7 +26,7 @@ from fallgen.vision.camera import EgoCamera
 from fallgen.vision.gl import GLContext
 from fallgen.vision.sight import line_of_sight
 from fallgen.world.library import World
-from fallgen.world.scene import VIEW, PlacedObject, build_scene
+from fallgen.world.scene import LOOK, VIEW, PlacedObject, build_scene
 
 
 def settled_objects(world: World, event: FallEvent) -> list[PlacedObject]:
@@ -49,11 +49,12 @@ class SettledRoom:
 
     def __init__(self, world: World, event: FallEvent, context: GLContext,
                  labels: tuple[str, ...], spec: AgentSpec = AgentSpec(),
-                 static: np.ndarray | None = None) -> None:
+                 static: np.ndarray | None = None, appearance: bool = False) -> None:
         self.event, self.spec = event, spec
         self.variant = world.variant(event.room_variant)
         objects = settled_objects(world, event)
-        self.scene = build_scene(self.variant, world.materials, objects, settings=VIEW)
+        self.scene = build_scene(self.variant, world.materials, objects,
+                                 settings=LOOK if appearance else VIEW)
         self.data = self.scene.data()
         mujoco.mj_forward(self.scene.model, self.data)
         self.object_categories = {o.name: o.instance.category for o in objects}

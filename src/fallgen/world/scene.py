@@ -81,7 +81,10 @@ class PhysicsSettings:
 
 
 #: An episode's settled room, only looked at (rendered, ray cast, rasterised): no collision pieces.
-VIEW = PhysicsSettings(collision_meshes=False, appearance=True)
+VIEW = PhysicsSettings(collision_meshes=False)
+#: The same, drawn with textures and a shadow-casting light (issue 29, in progress: a build
+#: turns it on with ``appearance = true`` in ``[generate]``).
+LOOK = PhysicsSettings(collision_meshes=False, appearance=True)
 
 #: Specular reflectance of a textured surface by texture kind (MuJoCo's material.specular; 0.5
 #: is its default for everything): matte plaster, carpet and fabric, glazed tiles and polished
