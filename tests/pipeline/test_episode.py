@@ -13,7 +13,7 @@ from fallgen.audio.hrtf import spherical_head
 from fallgen.audio.mix import Binaural
 from fallgen.audio.room import RirSettings
 from fallgen.config import RehearseConfig
-from fallgen.nav.agent import VISIBLE_PIXELS, AgentSpec, Pose, run
+from fallgen.nav.agent import VISIBLE_PIXELS, AgentSpec, Pose
 from fallgen.physics.drop import run_trial
 from fallgen.pipeline.episode import MIN_SPAWN_DISTANCE_M, EpisodeMaker, Skip
 
@@ -54,7 +54,6 @@ def episodes(maker, events):
 
 
 def test_expert_succeeds_and_is_checked_by_rendering(maker, episodes, world):
-    from fallgen.vision.camera import EgoCamera
 
     for ep in episodes:
         assert ep.expert_spl == pytest.approx(1.0)
