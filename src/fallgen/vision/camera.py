@@ -29,9 +29,10 @@ from fallgen.world.scene import WALL_OWNERS, Scene
 
 WIDTH = HEIGHT = 300
 FOV_DEG = 90.0
-#: Shadow map size (pixels a side) where the scene's lights cast shadows: ~3 shadow texels
-#: per image pixel of a 300 px view of a room (MuJoCo's default 4096 costs ~40 ms a context).
-SHADOW_MAP_PX = 1024
+#: Shadow map size (pixels a side) where the scene's light casts shadows: ~3 cm a texel over
+#: its cone in a room. The depth pass draws the map's pixels: 1024 cost 6 ms more a view and
+#: 30 ms more a camera than 512 on a CPU renderer (MuJoCo's default 4096, ~40 ms a context).
+SHADOW_MAP_PX = 512
 #: How far (pixels) beyond the projected outline of an object's boxes a drawn pixel's centre may
 #: lie: float32 rounding in the renderer's projection is ~1e-4 pixel; tests/vision checks
 #: that the bound holds over thousands of random views.

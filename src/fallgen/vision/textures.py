@@ -34,6 +34,9 @@ from fallgen.world.appearance import TextureSpec
 MEAN_LEVEL = 0.9
 #: Pixels per side of a texture image.
 DEFAULT_PX = 256
+#: Pixels per side of the textures a scene carries to the renderer: a 300 px view of a room
+#: resolves ~1 cm at 1 m, and every episode's scene uploads its textures.
+SCENE_PX = 128
 
 
 # --- building blocks -----------------------------------------------------------------------------
@@ -216,7 +219,7 @@ def render_texture(spec: TextureSpec, px: int = DEFAULT_PX) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=64)
-def texture_bytes(spec: TextureSpec, px: int = DEFAULT_PX) -> tuple[int, int, int, bytes]:
+def texture_bytes(spec: TextureSpec, px: int = SCENE_PX) -> tuple[int, int, int, bytes]:
     """(width, height, channels, RGB bytes) of the texture, as a MuJoCo texture takes them;
     drawn once per process."""
     img = render_texture(spec, px)
