@@ -285,3 +285,18 @@ def test_shard_writer_streams_and_leaves_nothing_half_written(tmp_path):
         assert [int(h5["audio"][k, 0, 0]) for k in range(3)] == [0, 1, 2]
         assert h5["depth"].dtype == np.float16 and sorted(h5["occupancy"]) == ["0", "1", "2"]
     assert pq.read_table(data).num_rows == 3
+
+
+def test_the_build_settings_come_back_from_the_manifest(tiny_build):
+    """What the environment reads to look as the dataset does (``appearance``): the
+    manifest's [generate] settings; a dataset without a manifest has none."""
+    import shutil
+
+    from fallgen.dataset.reader import open_dataset
+
+    base, _ = tiny_build
+    g = open_dataset(base / "one").generate_settings()
+    assert g["appearance"] is False and g["audio_s"] == 1.0
+    bare = base / "no_manifest"
+    shutil.copytree(base / "one" / "data", bare / "data")
+    assert open_dataset(bare).generate_settings() == {}

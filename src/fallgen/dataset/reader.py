@@ -69,6 +69,14 @@ class Dataset:
     def __len__(self) -> int:
         return sum(pq.read_metadata(p).num_rows for p in self.shards)
 
+    def generate_settings(self) -> dict:
+        """The ``[generate]`` settings the dataset was built with (its manifest's), or {} where
+        the manifest has none."""
+        path = self.root / "manifest.json"
+        if not path.is_file():
+            return {}
+        return dict(json.loads(path.read_text()).get("settings", {}).get("generate", {}))
+
     def _attr(self, name: str) -> list[str]:
         for p in sorted((self.root / "media").glob("*.h5")):
             with h5py.File(p, "r") as f:

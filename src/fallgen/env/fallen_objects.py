@@ -132,6 +132,8 @@ class FallenObjectsEnv(gym.Env):
             raise ValueError(f"{self.ds.root}: category_labels: the dataset was built with "
                              "other world data than this environment loads (pass data_dir=)")
         self.source = EpisodeSource(self.ds)
+        #: the views look as the dataset's do (textured where it was built with appearance)
+        self._appearance = bool(self.ds.generate_settings().get("appearance", False))
         first = self.ds.row(self.ids[0])
         self.audio_shape = tuple(self.ds.arrays(first, ("audio",))["audio"].shape)
         self.observation_space = spaces.Dict(self._spaces())
@@ -213,7 +215,8 @@ class FallenObjectsEnv(gym.Env):
             self._gl = GLContext(WIDTH)
         variant = ep.row["room_variant"]
         room = SettledRoom(self.world, ep.event, self._gl, self.category_labels,
-                           self.spec_agent, self._room_samples.get(variant))
+                           self.spec_agent, self._room_samples.get(variant),
+                           appearance=self._appearance)
         self._room_samples[variant] = room.static
         self._room_samples.move_to_end(variant)
         while len(self._room_samples) > 16:
