@@ -296,7 +296,7 @@ def test_the_build_settings_come_back_from_the_manifest(tiny_build):
 
     base, _ = tiny_build
     g = open_dataset(base / "one").generate_settings()
-    assert g["appearance"] is False and g["audio_s"] == 1.0
+    assert g["appearance"] is True and g["audio_s"] == 1.0
     bare = base / "no_manifest"
     shutil.copytree(base / "one" / "data", bare / "data")
     assert open_dataset(bare).generate_settings() == {}

@@ -82,8 +82,8 @@ class PhysicsSettings:
 
 #: An episode's settled room, only looked at (rendered, ray cast, rasterised): no collision pieces.
 VIEW = PhysicsSettings(collision_meshes=False)
-#: The same, drawn with textures and a shadow-casting light (issue 29, in progress: a build
-#: turns it on with ``appearance = true`` in ``[generate]``).
+#: The same, drawn with textures and a shadow-casting light (what a build renders unless its
+#: ``[generate]`` says ``appearance = false``).
 LOOK = PhysicsSettings(collision_meshes=False, appearance=True)
 
 #: Specular reflectance of a textured surface by texture kind (MuJoCo's material.specular; 0.5
