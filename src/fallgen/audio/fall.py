@@ -348,6 +348,7 @@ class FallRenderer:
         others: dict[int, _Body] = {}
         names: dict[int, str] = {}
         centres: list[np.ndarray] = []
+        coverings = self._floor_coverings(event.room_variant)
         for c in event.contacts:
             other = others.get(c.geom_other)
             if other is None:
@@ -369,7 +370,7 @@ class FallRenderer:
                         face = c.other if c.other in ("floor", "ceiling") else \
                             c.other.split("_", 1)[1]
                         surface = world.variant(event.room_variant).surfaces[face]
-                    elif c.other in self._floor_coverings(event.room_variant):
+                    elif c.other in coverings:
                         # a rug: the floor under it rings, struck through the rug (its
                         # finish: a soft contact, a long and gentle force)
                         surface = world.variant(event.room_variant).surfaces["floor"]

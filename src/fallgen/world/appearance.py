@@ -93,39 +93,35 @@ class Params:
         return float(self.size(params))
 
 
-
 KINDS: dict[str, Params] = {
-    "planks": Params({"board_width_m": 0.14, "board_length_m": 1.2, "seam": 0.6,
-                             "grain": 1.0},
-                   {"board_width_m": (0.04, 0.4), "board_length_m": (0.2, 5.0),
-                    "seam": (0.0, 1.0), "grain": (0.0, 2.0)},
-                   lambda p: p["board_width_m"] * max(8, round(p["board_length_m"]
-                                                                / p["board_width_m"]))),
+    "planks": Params({"board_width_m": 0.14, "board_length_m": 1.2, "seam": 0.6, "grain": 1.0},
+                     {"board_width_m": (0.04, 0.4), "board_length_m": (0.2, 5.0),
+                      "seam": (0.0, 1.0), "grain": (0.0, 2.0)},
+                     lambda p: p["board_width_m"] * max(8, round(p["board_length_m"]
+                                                                 / p["board_width_m"]))),
     "tiles": Params({"tile_m": 0.3, "grout_m": 0.004, "grout": 0.75, "variation": 0.02},
-                  {"tile_m": (0.02, 1.5), "grout_m": (0.0, 0.02), "grout": (0.0, 2.0),
-                   "variation": (0.0, 0.2)},
-                  lambda p: 4 * p["tile_m"]),
+                    {"tile_m": (0.02, 1.5), "grout_m": (0.0, 0.02), "grout": (0.0, 2.0),
+                     "variation": (0.0, 0.2)},
+                    lambda p: 4 * p["tile_m"]),
     "plaster": Params({"roughness": 1.0}, {"roughness": (0.0, 3.0)}, lambda p: 1.0),
     "concrete": Params({"roughness": 1.0, "pores": 0.3},
-                     {"roughness": (0.0, 3.0), "pores": (0.0, 1.0)}, lambda p: 1.0),
+                       {"roughness": (0.0, 3.0), "pores": (0.0, 1.0)}, lambda p: 1.0),
     "brick": Params({"brick_length_m": 0.215, "brick_height_m": 0.065, "mortar_m": 0.01,
-                           "variation": 0.06},
-                  {"brick_length_m": (0.1, 0.5), "brick_height_m": (0.03, 0.3),
-                   "mortar_m": (0.0, 0.03), "variation": (0.0, 0.3)},
-                  lambda p: 4 * (p["brick_length_m"] + p["mortar_m"])),
+                     "variation": 0.06},
+                    {"brick_length_m": (0.1, 0.5), "brick_height_m": (0.03, 0.3),
+                     "mortar_m": (0.0, 0.03), "variation": (0.0, 0.3)},
+                    lambda p: 4 * (p["brick_length_m"] + p["mortar_m"])),
     "stone": Params({"veins": 1.0, "scale_m": 0.4},
-                  {"veins": (0.0, 2.0), "scale_m": (0.05, 2.0)}, lambda p: 2 * p["scale_m"]),
+                    {"veins": (0.0, 2.0), "scale_m": (0.05, 2.0)}, lambda p: 2 * p["scale_m"]),
     "carpet": Params({"pile": 1.0, "mottle": 1.0},
-                   {"pile": (0.0, 2.0), "mottle": (0.0, 2.0)}, lambda p: 0.5),
+                     {"pile": (0.0, 2.0), "mottle": (0.0, 2.0)}, lambda p: 0.5),
     "fabric": Params({"weave_m": 0.004, "contrast": 1.0, "folds": 0.0, "fold_m": 0.12},
                      {"weave_m": (0.001, 0.05), "contrast": (0.0, 2.0), "folds": (0.0, 2.0),
                       "fold_m": (0.03, 0.5)}, lambda p: 0.25 if p["folds"] == 0 else 0.6),
     "veneer": Params({"grain": 1.0, "figure_m": 0.12},
-                   {"grain": (0.0, 2.0), "figure_m": (0.01, 1.0)}, lambda p: 0.6),
+                     {"grain": (0.0, 2.0), "figure_m": (0.01, 1.0)}, lambda p: 0.6),
     "metal": Params({"brushing": 1.0}, {"brushing": (0.0, 2.0)}, lambda p: 0.5),
 }
-
-
 
 
 def parse_texture(f: Fields, key: str = "texture") -> TextureSpec:

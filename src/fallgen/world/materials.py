@@ -315,7 +315,7 @@ def parse_object_materials(f: Fields) -> dict[str, ObjectMaterial]:
                     name=ref,
                     description=g.str("description"),
                     rgba=_rgba(g, base.rgba),
-                    texture=parse_texture(g) if "texture" in g else base.texture,
+                    texture=_own_or_base(g, base, "texture", lambda: parse_texture(g)),
                     sources=_sources(g),
                     **_elastic(g, base),
                     **_acoustic(g, base),
