@@ -114,3 +114,111 @@ def test_a_dropped_camera_frees_its_gl_objects_in_its_own_context(world):
     got = cam2.render(d2, POSES[0])
     cam2.close()
     assert np.array_equal(got.instance, want.instance)
+
+
+def _face_on(texture, half_x, half_y, repeat=None, px=300, view_m=1.0):
+    """An orthographic view, ``view_m`` high, of the +z face of a box drawn by the scenes' own
+    texturing (:func:`fallgen.world.scene._look`), its local y up: the grey levels."""
+    import cv2
+
+    from fallgen.world.scene import _look
+
+    spec = mujoco.MjSpec()
+    spec.visual.headlight.ambient = [1.0, 1.0, 1.0]
+    spec.visual.headlight.diffuse = [0.0, 0.0, 0.0]
+    g = spec.worldbody.add_geom()
+    g.type, g.size = mujoco.mjtGeom.mjGEOM_BOX, [half_x, half_y, 0.05]
+    q = np.zeros(4)  # local z toward the camera (world -y), local y up
+    mujoco.mju_mat2Quat(q, np.column_stack([[1, 0, 0], [0, 0, 1], [0, -1, 0]]).ravel()
+                        .astype(float))
+    g.quat = q
+    _look(spec, g, texture, [0.9, 0.9, 0.9, 1.0], repeat)
+    cam = spec.worldbody.add_camera()
+    cam.name, cam.pos, cam.fovy = "face", [0.0, -2.0, 0.0], view_m
+    cam.proj = mujoco.mjtProjection.mjPROJ_ORTHOGRAPHIC
+    mujoco.mju_mat2Quat(q, np.column_stack([[1, 0, 0], [0, 0, 1], [0, -1, 0]]).ravel()
+                        .astype(float))
+    cam.quat = q
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    with mujoco.Renderer(model, px, px) as r:
+        r.update_scene(data, "face")
+        rgb = r.render()
+    return cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY).astype(float)
+
+
+def test_texture_repeats_at_its_size_in_metres():
+    """Rendered, 25 cm tiles show a grout line every 25 cm of the face: 75 of the 300 pixels
+    of a 1 m orthographic view (MuJoCo repeats a uniform texture every 2 / texrepeat
+    metres)."""
+    from fallgen.world.appearance import TextureSpec
+
+    grey = _face_on(TextureSpec.make("tiles", 1.0, tile_m=0.25, grout_m=0.01, grout=0.3,
+                                     variation=0.0), 1.0, 1.0)
+    cols = grey.mean(axis=0)
+    dark = np.flatnonzero(cols < cols.mean() - 0.5 * cols.std())
+    runs = np.split(dark, np.flatnonzero(np.diff(dark) > 1) + 1)
+    centres = np.array([r.mean() for r in runs if len(r)])
+    spacing = np.diff(centres)
+    assert len(spacing) >= 3, centres
+    assert np.all(np.abs(spacing - 75.0) <= 1.5), centres
+
+
+def test_fronts_fit_their_face_upright():
+    """A counter's front: the drawer row's gap lies drawer_m below the face's top edge, and
+    the doors' gaps part the face's width into equal doors."""
+    from fallgen.world.appearance import TextureSpec
+
+    # a 0.9 x 0.6 m face in a 1 m view: 300 px per metre, the face from row 60 to 240
+    tex = TextureSpec.make("doors", door_m=0.3, drawer_m=0.15, gap_m=0.01, handle=0.0,
+                           face_w_m=0.9, face_h_m=0.6)
+    grey = _face_on(tex, 0.45, 0.3, repeat=(1 / 0.9, 1 / 0.6))
+    rows = grey[60:240, 30:270].mean(axis=1)
+    assert abs(int(np.argmin(rows[10:-10])) + 10 - 45) <= 2  # 0.15 m below the top: row 45
+    cols = grey[150:230, 15:285].mean(axis=0)  # through the doors, below the drawers
+    dark = np.flatnonzero(cols < cols.mean() - 2 * cols.std())
+    runs = np.split(dark, np.flatnonzero(np.diff(dark) > 1) + 1)
+    centres = sorted(r.mean() + 15 for r in runs if len(r))
+    inner = [c for c in centres if 20 < c - 15 < 250]
+    assert len(inner) == 2 and all(abs(c - e) <= 2 for c, e in zip(inner, (105, 195))), centres
+
+
+def test_a_look_redraws_colours_and_textures_not_geometry(world):
+    """``look_seed`` (appearance randomisation): another seed draws other colours, textures and
+    light (RGB differs), the same seed the same pixels; segmentation and depth are the room's
+    own."""
+    import dataclasses
+
+    def views(seed):
+        settings = dataclasses.replace(LOOK, look_seed=seed)
+        scene = build_scene(world.variant(VARIANT), world.materials, settings=settings)
+        d = scene.data()
+        mujoco.mj_forward(scene.model, d)
+        cam = EgoCamera(scene)
+        try:
+            return [cam.render(d, p, "all") for p in POSES[:3]]
+        finally:
+            cam.close()
+
+    a, b, a2 = views(1), views(2), views(1)
+    for va, vb, va2 in zip(a, b, a2):
+        assert np.array_equal(va.rgb, va2.rgb)
+        assert np.abs(va.rgb.astype(int) - vb.rgb.astype(int)).mean() > 3.0
+        assert np.array_equal(va.instance, vb.instance)
+        np.testing.assert_allclose(va.depth, vb.depth, atol=1e-5)
+    with pytest.raises(ValueError, match="look_seed"):
+        PhysicsSettings(collision_meshes=False, look_seed=3)
+
+
+def test_windows_are_bright_and_opaque_in_textured_views(world):
+    """A glass wall is a transparent tint in the flat scene; drawn with textures it is an
+    opaque window lit from outside (emission)."""
+    v = world.variant("study_lounge-l1-m1")  # its south wall is glass
+    flat = build_scene(v, world.materials, settings=FLAT)
+    look = build_scene(v, world.materials, settings=LOOK)
+    g_flat = flat.geom_owner.index("wall_south")
+    g_look = look.geom_owner.index("wall_south")
+    assert flat.model.geom_rgba[g_flat, 3] < 0.5
+    mat = look.model.geom_matid[g_look]
+    assert mat >= 0 and look.model.mat_rgba[mat, 3] == 1.0 and look.model.mat_emission[mat] > 0.5

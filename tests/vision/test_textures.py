@@ -19,9 +19,12 @@ def test_deterministic_and_seeded(kind):
     assert a.shape == (256, 256, 3) and a.dtype == np.uint8
     assert np.array_equal(a, b)
     assert not np.array_equal(a, c)
-    # a luminance pattern around the mean level: the surface's colour sets the hue
-    assert abs(a.mean() / 255 - MEAN_LEVEL) < 0.08, a.mean() / 255
-    assert detail_share(a) > 0.3  # every kind has detail: none is a flat colour
+    if kind != "print":  # a picture is in colour, at its own brightness
+        # a luminance pattern around the mean level: the surface's colour sets the hue
+        assert abs(a.mean() / 255 - MEAN_LEVEL) < 0.08, a.mean() / 255
+    # every kind has detail: none is a flat colour (a cabinet's doors and a window's panes are
+    # flat between their gaps, handles and bars)
+    assert detail_share(a) > (0.15 if kind in ("doors", "window") else 0.3)
 
 
 @pytest.mark.parametrize("kind", ["plaster", "concrete", "carpet", "stone", "metal", "veneer"])
@@ -55,7 +58,7 @@ def test_boards_and_tiles_at_their_real_size():
 
 
 def test_bad_parameter_values():
-    for kind, kw, field in [("wallpaper", {}, "kind"),
+    for kind, kw, field in [("linocut", {}, "kind"),
                             ("planks", {"board_width_m": 2.0}, "board_width_m"),
                             ("tiles", {"spacing": 0.1}, "spacing"),
                             ("carpet", {"pile": "thick"}, "pile"),

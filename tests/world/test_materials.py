@@ -93,16 +93,18 @@ def test_every_grade_keeps_base_label_contact_and_flag(lib):
         if g.restitution == base.restitution:  # contact parameters go with the restitution
             assert g.solref == base.solref
         assert g.sources and g.description
-        # a grade exists to change something physical: its mechanics, or how it absorbs sound
-        # as a furnishing (a rug, curtains: the fabric's mechanics, their own absorption)
+        # a grade exists to change something: its mechanics, how it absorbs sound as a
+        # furnishing (a rug, curtains: the fabric's mechanics, their own absorption), or how it
+        # looks (books on shelves, a picture: the paper's physics)
         assert (g.density_kg_m3, g.youngs_modulus_pa, g.poisson_ratio, g.loss_factor,
-                g.absorption, g.absorption_per) != (
+                g.absorption, g.absorption_per, g.texture) != (
             base.density_kg_m3,
             base.youngs_modulus_pa,
             base.poisson_ratio,
             base.loss_factor,
             base.absorption,
             base.absorption_per,
+            base.texture,
         ), ref
 
 

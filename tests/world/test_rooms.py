@@ -184,6 +184,24 @@ def test_curtains_hang_at_the_walls(world):
                 assert it.parts[0].material == "fabric/drape"
 
 
+def test_pictures_hang_on_walls_clear_of_zones_and_the_robot(world):
+    """Every layout hangs pictures; each is flat on a wall above the robot's height band, and
+    no zone's settle volume or drop region reaches it (it changes no fall)."""
+    for v in _all(world):
+        pictures = [it for it in v.furniture if it.type == "picture"]
+        assert pictures, v.id
+        for it in pictures:
+            assert it.wall is not None and it.size[1] <= 0.06 and it.pose[2] >= 1.25, it.id
+            assert {p.material for p in it.parts} == {"paper/print", "wood_hard"}
+            for p in it.parts:
+                lo, hi = p.box.aabb()
+                for z in v.zones:
+                    for box in (z.volume, z.drop):
+                        a, b = box.aabb()
+                        assert not all(a[k] < hi[k] and b[k] > lo[k] for k in range(3)), \
+                            (v.id, it.id, z.anchor)
+
+
 def test_items_of_one_material_set(world):
     """``sets`` puts an item in some material sets only: study_lounge's m2 (wall-to-wall
     carpet) has no rug and no curtains, its m1 has both; the zones are the same."""
@@ -212,6 +230,19 @@ def _room_file(tmp_path, world, edit):
                          'along = 1.8, size = [3, 0.13, 2.3], sets = ["m3"]'), "].sets"),
     (lambda s: s.replace('along = 1.8, size = [3, 0.13, 2.3]',
                          'along = 1.8, size = [3, 0.13, 2.3], sets = []'), "].sets"),
+    (lambda s: s.replace('along = 1.55, z_m = 1.35, size = [1.0, 0.04, 0.7]',
+                         'along = 1.55, z_m = 1.35, size = [1.0, 0.1, 0.7]'), "].size"),
+    (lambda s: s.replace('along = 1.55, z_m = 1.35, size = [1.0, 0.04, 0.7]',
+                         'along = 1.55, size = [1.0, 0.04, 0.7]'), "].z_m"),
+    (lambda s: s.replace('along = 1.55, z_m = 1.35, size = [1.0, 0.04, 0.7]',
+                         'along = 1.55, z_m = 1.35, gap = 0.1, size = [1.0, 0.04, 0.7]'),
+     "].gap"),
+    (lambda s: s.replace('along = 1.55, z_m = 1.35, size = [1.0, 0.04, 0.7]',
+                         'along = 1.55, z_m = 1.35, size = [1.0, 0.04, 0.7], '
+                         'params = { frame_m = 0.5 }'), "].params.frame_m"),
+    (lambda s: s.replace('along = 1.55, z_m = 1.35, size = [1.0, 0.04, 0.7]',
+                         'along = 1.55, z_m = 1.35, size = [1.0, 0.04, 0.3], '
+                         'params = { frame_m = 0.15 }'), "].size"),
 ])
 def test_bad_soft_furnishing_is_one_error(tmp_path, world, edit, field):
     from fallgen.errors import InputError

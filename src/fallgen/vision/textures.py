@@ -1,5 +1,5 @@
 """Procedural textures for the rooms' surfaces and furniture: wood floors, tiles, plaster,
-stone, carpet, fabric, veneer, brushed metal.
+stone, carpet, fabric, veneer, brushed metal, wallpaper, pictures, books' spines and windows.
 
 A texture is a pure function of its :class:`TextureSpec` (kind, physical size, parameters,
 seed): a square, seamlessly tileable image of ``size_m`` x ``size_m`` of surface, so that a
@@ -10,7 +10,8 @@ the Fourier domain, so the image wraps without a seam.
 
 Images are *luminance patterns* around a mean of :data:`MEAN_LEVEL` (a slight warm or cool
 cast where the material has one): the renderer multiplies them by the surface's own colour
-(the room file's or material's ``rgba``), so one texture serves every colour of its kind.
+(the room file's or material's ``rgba``), so one texture serves every colour of its kind. A
+picture (``print``) is in colour and is not tinted.
 :func:`texture_file` writes a texture once as a PNG under a cache directory, keyed by the
 spec's hash.
 
@@ -202,11 +203,154 @@ def _metal(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
     return _to_image(level, (0.98, 0.99, 1.0))
 
 
+def _smooth_step(x: np.ndarray, width: float) -> np.ndarray:
+    """0 below -width / 2, 1 above +width / 2, linear between (an edge anti-aliased over
+    ``width``)."""
+    return np.clip(x / width + 0.5, 0.0, 1.0)
+
+
+def _wallpaper(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
+    p = spec.param
+    n = _units(spec.size_m, p["repeat_m"])  # pattern repeats across the image, both ways
+    u = (np.arange(px) + 0.5) * n / px
+    x, y = u[None, :] % 1.0, u[:, None] % 1.0  # position within a repeat (x: along the wall)
+    pix = n / px  # one pixel, in repeats
+    level = np.zeros((px, px), np.float32)
+    if p["stripes"] > 0:  # a broad band and a pinstripe per repeat, upright on a wall
+        band = 2.0 * _smooth_step(0.25 - np.abs(x - 0.25), pix) - 1.0
+        pin = _smooth_step(0.012 - np.abs(x - 0.75), pix)
+        level = level + p["stripes"] * (0.05 * band + 0.08 * pin)
+    if p["motif"] > 0:  # a four-petalled sprig on a half-drop (diamond) lattice
+        best = np.full((px, px), np.inf, np.float32)
+        for cx, cy in ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0), (0.5, 0.5)):
+            dx, dy = x - cx, y - cy
+            r = np.hypot(dx, dy)
+            th = np.arctan2(dy, dx)
+            edge = r - 0.2 * (0.7 + 0.3 * np.cos(4 * th))  # < 0 inside the petals
+            best = np.minimum(best, edge)
+        level = level - p["motif"] * 0.11 * _smooth_step(-best, pix)
+    level = p["contrast"] * level + 0.012 * periodic_noise(rng, px, 0.8)  # the paper's grain
+    return _to_image((level - level.mean()).astype(np.float32))
+
+
+def _print(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
+    """A framed picture's image: broad fields of colour from a small palette, broken by
+    brush-like streaks (in colour: the picture's frame and canvas colours do not tint it)."""
+    c = spec.param["contrast"]
+    k = 4
+    # muted colours: a grey of random lightness, each channel off it by ~25 %
+    palette = np.clip(rng.uniform(0.2, 0.9, (k, 1)) * (1.0 + 0.25 * rng.standard_normal((k, 3))),
+                      0.03, 1.0)
+    fields = np.stack([periodic_noise(rng, px, px / 12) for _ in range(k)])
+    fields = fields + 0.4 * np.stack([periodic_noise(rng, px, px / 48) for _ in range(k)])
+    soft = np.exp(2.5 * fields)  # soft assignment of each pixel to one palette colour
+    weights = soft / soft.sum(0, keepdims=True)
+    rgb = np.einsum("kyx,kc->yxc", weights, palette)
+    streaks = 0.07 * periodic_noise(rng, px, (0.8, px / 24))
+    rgb = rgb.mean() + c * (rgb - rgb.mean()) + c * streaks[..., None]
+    return np.clip(np.rint(rgb * 255.0), 0, 255).astype(np.uint8)
+
+
+def _spines(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
+    """Books on a shelf seen from the front: upright spines of random widths and tones, each
+    with a lighter label band, parted by dark gaps."""
+    p = spec.param
+    edges = [0]
+    while edges[-1] < px:
+        w = spec.size_m / px  # metres per pixel
+        edges.append(edges[-1] + max(2, int(round(rng.uniform(0.5, 1.5) * p["spine_m"] / w))))
+    edges[-1] = px  # the last spine ends at the image's edge (it wraps onto the first)
+    level = np.zeros((px, px), np.float32)
+    rows = np.arange(px)
+    for a, b in zip(edges[:-1], edges[1:]):
+        tone = rng.normal(0.0, p["variation"])
+        col = np.full(px, tone, np.float32)
+        y0 = int(rng.integers(0, px))
+        band = (rows - y0) % px < max(2, px // 10)  # a title label across the spine
+        col[band] += 0.12
+        level[:, a:b] = col[:, None]
+        level[:, a] = tone - 0.3  # the gap between two books
+    level = level + 0.02 * periodic_noise(rng, px, 0.8)
+    return _to_image(level.astype(np.float32))
+
+
+def _window(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
+    """A glazed wall from inside: bright panes of daylit sky with soft cloud, between the
+    frame's bars (``frame_m`` wide, a pane every ``pane_m``), their edges in shade."""
+    p = spec.param
+    n = _units(spec.size_m, p["pane_m"])
+    u = (np.arange(px) + 0.5) * n / px % 1.0  # position within a pane, 0..1
+    half = 0.5 * p["frame_m"] / (spec.size_m / n)  # half a bar, as a share of a pane
+    dist = np.minimum(np.minimum(u, 1.0 - u)[:, None], np.minimum(u, 1.0 - u)[None, :])
+    sky = 0.1 + 0.05 * periodic_noise(rng, px, px / 10)
+    bar = -0.12 + 0.01 * periodic_noise(rng, px, 0.8)
+    edge = dist < half + 1.5 * n / px  # the bar's rebate, in shade
+    level = np.where(dist < half, bar, np.where(edge, -0.3, sky))
+    return _to_image(level.astype(np.float32))
+
+
+def _doors(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
+    """The front of a cabinet, counter or appliance, fitted to one face (``face_w_m`` x
+    ``face_h_m``: the image spans the face once, stretched): doors about ``door_m`` wide under
+    a row of drawers ``drawer_m`` high (0: none), parted by ``gap_m`` shadow gaps, each with a
+    handle (``handle``: how dark). The image's first row is the face's top edge."""
+    p = spec.param
+    w, h = p["face_w_m"], p["face_h_m"]
+    n = max(1, int(round(w / p["door_m"])))
+    x = (np.arange(px) + 0.5) / px * w  # metres across the face
+    y = (np.arange(px) + 0.5) / px * h  # metres down from its top edge
+    X, Y = np.meshgrid(x, y)
+    level = 0.012 * periodic_noise(rng, px, 1.0)
+    gap = np.zeros((px, px), bool)
+    half_gap = max(0.5 * p["gap_m"], 0.5 * max(w, h) / px)  # at least a pixel
+    for k in range(1, n):  # between doors (and between the drawers above them)
+        gap |= np.abs(X - k * w / n) < half_gap
+    drawer = p["drawer_m"]
+    if 0.0 < drawer < 0.7 * h:
+        gap |= np.abs(Y - drawer) < half_gap
+    gap |= (X < half_gap) | (X > w - half_gap) | (Y < half_gap) | (Y > h - half_gap)
+    handle = np.zeros((px, px), bool)
+    hw = max(0.012, 1.5 * w / px)  # a bar handle's width (at least a pixel and a half)
+    hl = min(0.14, 0.5 * h)  # ... and length
+    y0 = drawer if 0.0 < drawer < 0.7 * h else 0.0
+    for k in range(n):
+        x0, x1 = k * w / n, (k + 1) * w / n
+        # a door's handle by the edge it opens from (pairs meet in the middle), near its top
+        hx = x1 - 0.05 if (k % 2 == 0 and k + 1 < n) or n == 1 else x0 + 0.05
+        handle |= (np.abs(X - hx) < hw / 2) & (Y > y0 + 0.05) & (Y < y0 + 0.05 + hl)
+        if y0 > 0:  # the drawer's handle, across its middle
+            handle |= (np.abs(Y - drawer / 2) < hw / 2) & (np.abs(X - (x0 + x1) / 2) < hl / 2)
+    level = np.where(gap, -0.45, np.where(handle, -0.35 * p["handle"], level))
+    return _to_image(level.astype(np.float32))
+
+
+def _cushions(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
+    """Upholstered cushions side by side, fitted to one face (``face_w_m`` x ``face_h_m``):
+    about ``cushion_m`` wide each, parted by seams (``seam``: how dark), each shaded toward its
+    rounded edges (``puff``), in a woven fabric."""
+    p = spec.param
+    w = p["face_w_m"]
+    n = max(1, int(round(w / p["cushion_m"])))
+    x = (np.arange(px) + 0.5) / px  # across the face, 0..1
+    y = (np.arange(px) + 0.5) / px
+    within = (x * n) % 1.0  # across one cushion
+    # the cushion's surface falls away toward its edges: darker there
+    shade_x = 1.0 - np.sin(np.pi * within) ** 0.5
+    shade_y = 1.0 - np.sin(np.pi * y) ** 0.5
+    level = -p["puff"] * 0.12 * np.maximum(shade_x[None, :], shade_y[:, None])
+    seam = np.minimum(within, 1.0 - within) * w / n < max(0.006, 0.75 * w / px)
+    level = np.where(seam[None, :], level - 0.25 * p["seam"], level)
+    level = level + 0.03 * periodic_noise(rng, px, 0.7) + 0.02 * periodic_noise(rng, px, px / 32)
+    return _to_image((level - level.mean()).astype(np.float32))
+
+
 #: How each kind is drawn (its parameters: :data:`fallgen.world.appearance.KINDS`).
 DRAW: dict[str, Callable[[TextureSpec, int, np.random.Generator], np.ndarray]] = {
     "planks": _planks, "tiles": _tiles, "plaster": _plaster, "concrete": _concrete,
     "brick": _brick, "stone": _stone, "carpet": _carpet, "fabric": _fabric, "veneer": _veneer,
-    "metal": _metal,
+    "metal": _metal, "wallpaper": _wallpaper, "print": _print, "spines": _spines,
+    "window": _window, "doors": _doors,
+    "cushions": _cushions,
 }
 
 
@@ -218,10 +362,11 @@ def render_texture(spec: TextureSpec, px: int = DEFAULT_PX) -> np.ndarray:
     return DRAW[spec.kind](spec, px, spec.rng())
 
 
-@functools.lru_cache(maxsize=64)
+@functools.lru_cache(maxsize=512)
 def texture_bytes(spec: TextureSpec, px: int = SCENE_PX) -> tuple[int, int, int, bytes]:
     """(width, height, channels, RGB bytes) of the texture, as a MuJoCo texture takes them;
-    drawn once per process."""
+    drawn once per process (the 64 variants use ~120 textures, fronts fitted to their parts
+    and pictures included: 49 kB each at 128 px)."""
     img = render_texture(spec, px)
     return img.shape[1], img.shape[0], 3, img.tobytes()
 

@@ -17,6 +17,19 @@ drawn by :mod:`fallgen.vision.textures`. Kinds and parameters (metres unless sai
   curtains hang in), fold_m (their spacing)
 - ``veneer``: grain (0..1), figure_m (width of the growth rings' figure)
 - ``metal``: brushing (0..1)
+- ``wallpaper``: repeat_m (the pattern's repeat), stripes (0..1: a band and a pinstripe per
+  repeat, upright on a wall), motif (0..1: a sprig on a half-drop lattice), contrast (0..2)
+- ``print``: contrast (0..2); a picture's image, in colour (the only kind not tinted by the
+  surface's colour), different for every seed
+- ``spines``: spine_m (a book's mean thickness), variation (0..0.5: the spines' tones)
+- ``doors``: door_m (about how wide a door is), drawer_m (the drawer row's height, 0: none),
+  gap_m, handle (0..1: how dark the handles are), face_w_m, face_h_m (the face it is fitted
+  to: the fronts of a furniture type's parts, made per part by the scene)
+- ``cushions``: cushion_m (about how wide a cushion is), seam (0..1), puff (0..2: the
+  shading of their rounded edges), face_w_m, face_h_m (fitted like ``doors``: a sofa's seat and
+  back)
+- ``window``: pane_m (a pane's side), frame_m (the bars' width); drawn opaque and lit from
+  outside (daylight), where the flat view shows the glass as a transparent tint
 """
 
 from __future__ import annotations
@@ -121,6 +134,24 @@ KINDS: dict[str, Params] = {
     "veneer": Params({"grain": 1.0, "figure_m": 0.12},
                      {"grain": (0.0, 2.0), "figure_m": (0.01, 1.0)}, lambda p: 0.6),
     "metal": Params({"brushing": 1.0}, {"brushing": (0.0, 2.0)}, lambda p: 0.5),
+    "wallpaper": Params({"repeat_m": 0.16, "stripes": 0.0, "motif": 1.0, "contrast": 1.0},
+                        {"repeat_m": (0.02, 1.0), "stripes": (0.0, 1.0), "motif": (0.0, 1.0),
+                         "contrast": (0.0, 2.0)}, lambda p: 4 * p["repeat_m"]),
+    "print": Params({"contrast": 1.0}, {"contrast": (0.0, 2.0)}, lambda p: 0.5),
+    "spines": Params({"spine_m": 0.03, "variation": 0.15},
+                     {"spine_m": (0.005, 0.2), "variation": (0.0, 0.5)}, lambda p: 0.6),
+    "doors": Params({"door_m": 0.5, "drawer_m": 0.15, "gap_m": 0.004, "handle": 1.0,
+                     "face_w_m": 1.0, "face_h_m": 0.8},
+                    {"door_m": (0.1, 5.0), "drawer_m": (0.0, 2.0), "gap_m": (0.0, 0.02),
+                     "handle": (0.0, 1.0), "face_w_m": (0.05, 10.0), "face_h_m": (0.05, 10.0)},
+                    lambda p: p["face_h_m"]),
+    "cushions": Params({"cushion_m": 0.6, "seam": 1.0, "puff": 1.0, "face_w_m": 1.8,
+                        "face_h_m": 0.6},
+                       {"cushion_m": (0.1, 3.0), "seam": (0.0, 1.0), "puff": (0.0, 2.0),
+                        "face_w_m": (0.05, 10.0), "face_h_m": (0.05, 10.0)},
+                       lambda p: p["face_h_m"]),
+    "window": Params({"pane_m": 0.6, "frame_m": 0.06},
+                     {"pane_m": (0.2, 2.0), "frame_m": (0.02, 0.2)}, lambda p: 2 * p["pane_m"]),
 }
 
 

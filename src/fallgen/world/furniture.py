@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from fallgen.fields import Fields
 from fallgen.world.geometry import Box
@@ -95,6 +95,14 @@ class FurnitureType:
     #: Offers the strip between its back and the wall as a ``behind`` zone when placed clear
     #: of the wall (curtains and rugs do not).
     has_behind: bool = True
+    #: Hangs on a wall (a picture): placed by ``wall`` and ``along`` with no gap, ``z_m`` its
+    #: bottom edge.
+    wall_hung: bool = False
+    #: Faces drawn with a texture fitted to them when the room is drawn with textures, by
+    #: part name: the texture kind (``doors``: a counter's doors and drawers; ``cushions``: a
+    #: sofa's), the face (``front``: the part's -y face; ``top``) and the kind's parameters
+    #: (:mod:`fallgen.world.appearance`); the face's size is the part's.
+    fronts: Mapping[str, tuple[str, str, Mapping[str, float]]] = field(default_factory=dict)
 
 
 def _box(name: str, lo: tuple[float, float, float], hi: tuple[float, float, float], material: str,
@@ -340,6 +348,28 @@ def _curtain(w, d, h, p: Fields) -> FurnitureGeometry:
                              {})
 
 
+def _picture(w, d, h, p: Fields) -> FurnitureGeometry:
+    """A framed picture hung flat on a wall (``z_m``: its bottom edge): the canvas, recessed
+    6 mm behind the front of a frame of ``frame_m`` wide bars, ``d`` (at most 6 cm) from the
+    wall to the frame's front."""
+    if d > 0.06:
+        raise ValueError(f"a picture hangs within 0.06 m of the wall (depth {d:g})")
+    b = p.float("frame_m", 0.04, lo=MIN_THICKNESS_M, hi=0.2)
+    if 2 * b > min(w, h) - 0.1:
+        raise ValueError(f"frame_m {b:g} leaves under 0.1 m of picture")
+    recess = 0.006
+    if d - recess < MIN_THICKNESS_M:
+        raise ValueError(f"a picture is at least {MIN_THICKNESS_M + recess:g} m deep (got {d:g})")
+    parts = (
+        _box("canvas", (-w / 2 + b, -d / 2 + recess, b), (w / 2 - b, d / 2, h - b), "canvas"),
+        _box("frame_b", (-w / 2, -d / 2, 0.0), (w / 2, d / 2, b), "frame"),
+        _box("frame_t", (-w / 2, -d / 2, h - b), (w / 2, d / 2, h), "frame"),
+        _box("frame_l", (-w / 2, -d / 2, b), (-w / 2 + b, d / 2, h - b), "frame"),
+        _box("frame_r", (w / 2 - b, -d / 2, b), (w / 2, d / 2, h - b), "frame"),
+    )
+    return FurnitureGeometry(parts, {})
+
+
 # --- containers ---------------------------------------------------------------------------------
 
 def _open_box(kind: str) -> Callable[..., FurnitureGeometry]:
@@ -366,26 +396,40 @@ _WHITE = (0.9, 0.9, 0.88, 1.0)
 _STEEL = (0.62, 0.63, 0.65, 1.0)
 _DARK = (0.18, 0.18, 0.2, 1.0)
 
+def _doors(door_m: float, drawer_m: float) -> dict[str, tuple[str, str, dict[str, float]]]:
+    """The body's front: doors about ``door_m`` wide under drawers ``drawer_m`` high."""
+    return {"body": ("doors", "front", {"door_m": door_m, "drawer_m": drawer_m})}
+
+
+#: A sofa's or armchair's seat and back cushions, about 0.6 m wide each.
+_CUSHIONS = {"base": ("cushions", "top", {"cushion_m": 0.6}),
+             "back": ("cushions", "front", {"cushion_m": 0.6})}
+
 FURNITURE: dict[str, FurnitureType] = {
     t.name: t
     for t in (
         FurnitureType("counter", "base cabinets with a worktop (kitchen counter)",
                       {"body": "wood_medium", "top": "stone"},
-                      {"body": _WHITE, "top": (0.35, 0.33, 0.32, 1.0)}, _counter),
+                      {"body": _WHITE, "top": (0.35, 0.33, 0.32, 1.0)}, _counter,
+                      fronts=_doors(0.5, 0.15)),
         FurnitureType("island", "free-standing kitchen island with a seating overhang",
                       {"body": "wood_medium", "top": "stone"},
-                      {"body": (0.3, 0.42, 0.5, 1.0), "top": (0.85, 0.84, 0.8, 1.0)}, _island),
+                      {"body": (0.3, 0.42, 0.5, 1.0), "top": (0.85, 0.84, 0.8, 1.0)}, _island,
+                      fronts=_doors(0.5, 0.15)),
         FurnitureType("cabinet", "closed cabinet: sideboard, cupboard, chest of drawers",
                       {"body": "wood_medium", "top": "wood_medium"},
-                      {"body": _LIGHT_WOOD, "top": _LIGHT_WOOD}, _cabinet),
+                      {"body": _LIGHT_WOOD, "top": _LIGHT_WOOD}, _cabinet,
+                      fronts=_doors(0.45, 0.16)),
         FurnitureType("wall_cabinet", "wall-mounted cabinet (set z_m to its bottom height)",
                       {"body": "wood_medium", "top": "wood_medium"},
-                      {"body": _WHITE, "top": _WHITE}, _cabinet),
+                      {"body": _WHITE, "top": _WHITE}, _cabinet, fronts=_doors(0.4, 0.0)),
         FurnitureType("fridge", "refrigerator", {"body": "metal", "top": "metal"},
-                      {"body": (0.85, 0.86, 0.88, 1.0), "top": (0.85, 0.86, 0.88, 1.0)}, _cabinet),
+                      {"body": (0.85, 0.86, 0.88, 1.0), "top": (0.85, 0.86, 0.88, 1.0)}, _cabinet,
+                      fronts=_doors(2.0, 0.5)),
         FurnitureType("stove", "cooker with pans on its burners (params: pans, pan_diameter_m)",
                       {"body": "metal", "top": "metal", "pans": "metal"},
-                      {"body": _STEEL, "top": _DARK, "pans": (0.25, 0.25, 0.27, 1.0)}, _stove),
+                      {"body": _STEEL, "top": _DARK, "pans": (0.25, 0.25, 0.27, 1.0)}, _stove,
+                      fronts=_doors(2.0, 0.12)),
         FurnitureType("dining_table", "table on four legs", {"top": "wood_hard", "legs": "wood_hard"},
                       {"top": _WOOD, "legs": _WOOD}, _table),
         FurnitureType("coffee_table", "low table on four legs",
@@ -399,14 +443,16 @@ FURNITURE: dict[str, FurnitureType] = {
         FurnitureType("chair", "chair with a back", {"body": "wood_medium", "legs": "wood_medium"},
                       {"body": _WOOD, "legs": _WOOD}, _chair),
         FurnitureType("sofa", "sofa on short legs", {"body": "fabric", "legs": "wood_hard"},
-                      {"body": (0.35, 0.42, 0.52, 1.0), "legs": _DARK}, _sofa),
+                      {"body": (0.35, 0.42, 0.52, 1.0), "legs": _DARK}, _sofa,
+                      fronts=_CUSHIONS),
         FurnitureType("armchair", "armchair on short legs", {"body": "fabric", "legs": "wood_hard"},
-                      {"body": (0.55, 0.35, 0.3, 1.0), "legs": _DARK}, _sofa),
+                      {"body": (0.55, 0.35, 0.3, 1.0), "legs": _DARK}, _sofa,
+                      fronts=_CUSHIONS),
         FurnitureType("shelf", "open shelving unit (params: levels, back, books_fraction)",
-                      {"body": "wood_medium", "books": "paper"},
+                      {"body": "wood_medium", "books": "paper/books"},
                       {"body": _LIGHT_WOOD, "books": (0.5, 0.2, 0.2, 1.0)}, _shelf),
         FurnitureType("bookshelf", "bookcase with books on each shelf",
-                      {"body": "wood_hard", "books": "paper"},
+                      {"body": "wood_hard", "books": "paper/books"},
                       {"body": _WOOD, "books": (0.45, 0.25, 0.2, 1.0)}, _shelf),
         FurnitureType("box", "open cardboard box on the floor",
                       {"body": "cardboard/corrugated"}, {"body": (0.7, 0.55, 0.36, 1.0)},
@@ -419,6 +465,10 @@ FURNITURE: dict[str, FurnitureType] = {
         FurnitureType("curtain", "curtains drawn over a window, hung in folds against a wall "
                       "(depth: wall to the folds' front)", {"drape": "fabric/drape"},
                       {"drape": (0.75, 0.7, 0.6, 1.0)}, _curtain, has_behind=False),
+        FurnitureType("picture", "framed picture hung on a wall (set z_m to its bottom edge; "
+                      "params: frame_m)", {"canvas": "paper/print", "frame": "wood_hard"},
+                      {"canvas": (0.9, 0.9, 0.9, 1.0), "frame": (0.22, 0.16, 0.12, 1.0)},
+                      _picture, has_behind=False, wall_hung=True),
     )
 }
 

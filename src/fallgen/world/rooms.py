@@ -207,6 +207,10 @@ def _furniture(f: Fields, size_room, mats: MaterialLibrary) -> FurnitureItem:
     if min(size) < 0.02:
         raise f.error("size", "every dimension must be at least 0.02 m (collision thickness)")
     pose, wall, gap = _place(f, size_room, size)
+    if spec.wall_hung and (wall is None or gap > 0 or pose[2] <= 0):
+        raise f.error("wall" if wall is None else "gap" if gap > 0 else "z_m",
+                      f"a {ftype} hangs on a wall: give wall, along and z_m (its bottom edge), "
+                      "no gap")
     roles = dict(spec.materials)
     if "materials" in f:
         mf = f.table("materials")

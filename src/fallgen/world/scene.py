@@ -16,6 +16,8 @@ collision geoms ``obj:<name>/cNN`` (group 3, hidden); the agent is body ``agent`
 
 from __future__ import annotations
 
+import dataclasses
+import zlib
 from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -23,6 +25,9 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+from fallgen.world.appearance import TextureSpec
+from fallgen.world.furniture import FURNITURE
+from fallgen.world.look import LookDraw
 from fallgen.world.materials import MaterialLibrary
 from fallgen.world.objects import ObjectInstance
 from fallgen.world.rooms import RoomVariant
@@ -70,8 +75,13 @@ class PhysicsSettings:
     #: with their materials' textures at real size, and ceiling lights that cast shadows.
     #: Scenes that are only simulated leave it out (textures add ~1 MB to a model).
     appearance: bool = False
+    #: With ``appearance``: draw the room's textures, colours and lights from this seed
+    #: (:class:`fallgen.world.look.LookDraw`; None: the room's own look).
+    look_seed: int | None = None
 
     def __post_init__(self) -> None:
+        if self.look_seed is not None and not self.appearance:
+            raise ValueError("look_seed needs appearance (a look is drawn on textured scenes)")
         if not (self.visual_meshes or self.collision_meshes):
             raise ValueError("objects need visual or collision meshes (or both)")
         if not 0 < self.timestep_s <= 0.01:
@@ -90,7 +100,17 @@ LOOK = PhysicsSettings(collision_meshes=False, appearance=True)
 #: is its default for everything): matte plaster, carpet and fabric, glazed tiles and polished
 #: stone, brushed metal.
 SPECULAR = {"plaster": 0.05, "concrete": 0.05, "brick": 0.03, "carpet": 0.0, "fabric": 0.02,
-            "planks": 0.25, "veneer": 0.25, "tiles": 0.45, "stone": 0.4, "metal": 0.6}
+            "planks": 0.25, "veneer": 0.25, "tiles": 0.45, "stone": 0.4, "metal": 0.6,
+            "wallpaper": 0.05, "print": 0.1, "spines": 0.05, "window": 0.5, "doors": 0.25,
+            "cushions": 0.02}
+
+
+#: How bright a window is with daylight behind it (MuJoCo's material emission: the share of its
+#: colour it shows unlit).
+WINDOW_EMISSION = 0.7
+#: ... and a ceiling with the light the room throws back up at it (no inter-reflection is
+#: rendered: lit by the fittings' uplights alone, a white ceiling came out dark grey).
+CEILING_EMISSION = 0.3
 
 
 @dataclass(frozen=True)
@@ -151,11 +171,12 @@ def _face_frame(center, half, room_centre) -> tuple[list[float], list[float]]:
     return [half[along_axis], half[2], half[thin]], list(quat)
 
 
-def _thin_axis_up(half, quat) -> tuple[list[float], list[float]]:
-    """(half sizes, quaternion) of the same box with its thinnest axis as local z (a 2D
-    texture shows at its size on the box's +-z faces only: these become its largest)."""
+def _thin_axis_up(half, quat, axis: int | None = None) -> tuple[list[float], list[float]]:
+    """(half sizes, quaternion) of the same box with its thinnest axis (or ``axis``) as local
+    z (a 2D texture shows at its size on the box's +-z faces only: these become its
+    largest, or those across ``axis``)."""
     half = np.asarray(half, float)
-    k = int(np.argmin(half))
+    k = int(np.argmin(half)) if axis is None else axis
     if k == 2:
         return list(half), list(quat)
     i, j = [a for a in (0, 1, 2) if a != k]
@@ -170,10 +191,26 @@ def _thin_axis_up(half, quat) -> tuple[list[float], list[float]]:
     return [half[i], half[j], half[k]], list(q)
 
 
-def _look(spec: mujoco.MjSpec, g, texture, rgba) -> None:
+def _front_frame(half, quat) -> tuple[list[float], list[float]]:
+    """(half sizes, quaternion) of the same box with its front (local -y) as its +z face, x
+    along its width and y up: a texture fitted to the face shows upright, its first row at
+    the top."""
+    base = np.zeros(9)
+    mujoco.mju_quat2Mat(base, np.asarray(quat, float))
+    cols = base.reshape(3, 3)
+    x, z = cols[:, 0], -cols[:, 1]
+    q = np.zeros(4)
+    mujoco.mju_mat2Quat(q, np.column_stack([x, np.cross(z, x), z]).ravel())
+    return [float(half[0]), float(half[2]), float(half[1])], list(q)
+
+
+def _look(spec: mujoco.MjSpec, g, texture, rgba, repeat: tuple[float, float] | None = None,
+          emission: float = 0.0) -> None:
     """Draw geom ``g`` with ``texture`` (a :class:`~fallgen.world.appearance.TextureSpec`)
     tinted by ``rgba``: one MuJoCo texture per spec and one material per (texture, colour) in
-    the spec, the texture repeated every ``texture.size_m`` metres of the geom's faces."""
+    the spec, the texture repeated every ``texture.size_m`` metres of the geom's faces (or
+    ``repeat`` times per metre along their x and y, from the corner: a texture fitted to a
+    face); ``emission``: the share of its colour it shows unlit (a window: its own)."""
     from fallgen.vision.textures import MEAN_LEVEL, texture_bytes
 
     tex_name = f"tex_{texture.key()}"
@@ -182,13 +219,22 @@ def _look(spec: mujoco.MjSpec, g, texture, rgba) -> None:
         w, h, n, data = texture_bytes(texture)
         t.width, t.height, t.nchannel, t.data = w, h, n, data
     colour = [min(1.0, float(c) / MEAN_LEVEL) for c in rgba[:3]]
-    mat_name = f"{tex_name}_" + "_".join(f"{c:.3f}" for c in colour)
+    window = texture.kind == "window"
+    emission = WINDOW_EMISSION if window else emission
+    mat_name = f"{tex_name}_" + "_".join(f"{c:.3f}" for c in colour) \
+        + (f"_e{emission:.2f}" if emission else "")
     if spec.material(mat_name) is None:
         m = spec.add_material(name=mat_name)
         m.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = tex_name
         m.texuniform = True
-        m.texrepeat = [1.0 / texture.size_m, 1.0 / texture.size_m]
-        m.rgba = [*colour, float(rgba[3])]
+        # MuJoCo repeats a uniform texture every 2 / texrepeat metres of a face, from the
+        # face's corner (measured: tests/vision/test_appearance.py)
+        m.texrepeat = [2.0 * r for r in repeat] if repeat is not None else \
+            [2.0 / texture.size_m, 2.0 / texture.size_m]
+        # a window is opaque and bright with the daylight behind it (the flat view's glass is
+        # a transparent tint on nothing: the room has no outside)
+        m.rgba = [*colour, 1.0 if window else float(rgba[3])]
+        m.emission = emission
         m.specular = SPECULAR.get(texture.kind, 0.2)
     g.material = mat_name
 
@@ -289,6 +335,8 @@ def _build_room_spec(variant: RoomVariant, mats: MaterialLibrary, settings: Phys
     wb = spec.worldbody
     lx, ly, h = variant.size_m
     t = WALL_THICKNESS_M
+    look = LookDraw(settings.look_seed) if settings.appearance \
+        and settings.look_seed is not None else None
 
     def shell(name: str, surface_key: str, center, half) -> None:
         s = variant.surfaces[surface_key]
@@ -302,7 +350,14 @@ def _build_room_spec(variant: RoomVariant, mats: MaterialLibrary, settings: Phys
                 # texture onto a box's faces by their local x and y, so only the +-z faces
                 # show it at its size (on the others it smears into streaks)
                 g.size, g.quat = _face_frame(center, half, (lx / 2, ly / 2))
-            _look(spec, g, s.texture, s.rgba)
+            # the ceiling is lit by the light the room throws back up, which a renderer without
+            # inter-reflection leaves out: it shows some of its own colour unlit
+            glow = CEILING_EMISSION if name == "ceiling" else 0.0
+            if look is None:
+                _look(spec, g, s.texture, s.rgba, emission=glow)
+            else:
+                g.rgba = look.colour(("surface", s.name), s.rgba)
+                _look(spec, g, look.texture(s.texture), g.rgba, emission=glow)
         _set_contact(g, mats, s.impact_material, s.friction_sliding)
         info[name] = (name, s.impact_material)
 
@@ -319,13 +374,15 @@ def _build_room_spec(variant: RoomVariant, mats: MaterialLibrary, settings: Phys
         light.pos = [x, y, h - 0.05]
         light.dir = [0.0, 0.0, -1.0]
         light.diffuse = [0.22, 0.22, 0.21] if settings.appearance else [0.45, 0.45, 0.43]
+        if look is not None:
+            light.diffuse = look.light(light.diffuse)
         light.castshadow = False
         if settings.appearance:  # the fitting lights the ceiling around it too
             up = wb.add_light()
             up.name = f"ceiling_light{i}_up"
             up.pos = [x, y, h - 0.3]
             up.dir = [0.0, 0.0, 1.0]
-            up.diffuse = [0.2, 0.2, 0.19]
+            up.diffuse = [0.2, 0.2, 0.19] if look is None else look.light([0.2, 0.2, 0.19])
             up.cutoff = 80.0
             up.castshadow = False
     if settings.appearance:
@@ -335,7 +392,7 @@ def _build_room_spec(variant: RoomVariant, mats: MaterialLibrary, settings: Phys
         main.name = "ceiling_light_main"
         main.pos = [lx / 2, ly / 2, h - 0.05]
         main.dir = [0.0, 0.0, -1.0]
-        main.diffuse = [0.45, 0.45, 0.43]
+        main.diffuse = [0.45, 0.45, 0.43] if look is None else look.light([0.45, 0.45, 0.43])
         main.cutoff = 70.0
         main.castshadow = True
 
@@ -352,10 +409,34 @@ def _build_room_spec(variant: RoomVariant, mats: MaterialLibrary, settings: Phys
         g.pos = list(b.center)
         g.quat = list(b.quat)
         g.rgba = _rgba(part.rgba or mats.object(part.material).rgba)
+        if look is not None and settings.appearance:
+            g.rgba = look.colour(("part", item.id, part.role), g.rgba)
         texture = mats.object(part.material).texture
-        if settings.appearance and texture is not None:
-            if part.shape == "box":  # its largest faces as the box's +-z (see _face_frame)
-                g.size, g.quat = _thin_axis_up(b.half, b.quat)
+        fitted = FURNITURE[item.type].fronts.get(part.name) if part.shape == "box" else None
+        if settings.appearance and fitted is not None:
+            # doors and drawers, cushions: a texture fitted to one face of the part
+            kind, face, params = fitted
+            fw = 2 * b.half[0]
+            if face == "front":  # local -y
+                fh = 2 * b.half[2]
+                g.size, g.quat = _front_frame(b.half, b.quat)
+            else:  # the top: already its +z face
+                fh = 2 * b.half[1]
+            texture = TextureSpec.make(kind, **params, face_w_m=round(fw, 4),
+                                       face_h_m=round(fh, 4))
+            if look is not None:
+                texture = look.texture(texture)
+            _look(spec, g, texture, g.rgba, repeat=(1.0 / fw, 1.0 / fh))
+        elif settings.appearance and texture is not None:
+            if part.shape == "box":  # its largest faces as the box's +-z (see _face_frame);
+                # books show their spines: their front, whatever their proportions
+                g.size, g.quat = _thin_axis_up(b.half, b.quat,
+                                               1 if texture.kind == "spines" else None)
+            if texture.kind == "print":  # every picture its own image
+                texture = dataclasses.replace(
+                    texture, seed=zlib.crc32(f"{variant.room}/{item.id}".encode()))
+            if look is not None:
+                texture = look.texture(texture)
             _look(spec, g, texture, g.rgba)
         _set_contact(g, mats, part.material)
         info[g.name] = (item.id, part.material)
