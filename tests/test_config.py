@@ -38,3 +38,19 @@ def test_bad_config(tmp_path, old, new, field):
     with pytest.raises(InputError) as e:
         load_config(p)
     assert "bad.toml" in str(e.value) and field in str(e.value) and "\n" not in str(e.value)
+
+
+def test_appearance_randomization_needs_appearance(tmp_path):
+    """Each episode's own look is drawn on textured views: on (appearance = true) it loads,
+    with flat views it is an error naming the field."""
+    src = (Path(__file__).resolve().parents[1] / "configs/smoke.toml").read_text()
+    ok = tmp_path / "ok.toml"
+    ok.write_text(src.replace("appearance_randomization = false",
+                              "appearance_randomization = true"))
+    assert load_config(ok).generate.appearance_randomization
+    p = tmp_path / "bad.toml"
+    p.write_text(src.replace("appearance = true ", "appearance = false ").replace(
+        "appearance_randomization = false", "appearance_randomization = true"))
+    with pytest.raises(InputError) as e:
+        load_config(p)
+    assert "bad.toml" in str(e.value) and "generate.appearance_randomization" in str(e.value)

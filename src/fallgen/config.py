@@ -47,6 +47,9 @@ class GenerateConfig:
     #: draw the views with textures and a shadow-casting light (world.scene.LOOK); false:
     #: flat colours (the paper-size build 12.9 instead of 14.7 min; README: How the rooms look)
     appearance: bool = True
+    #: draw every episode's views with a look of its own (textures, colours, light: world.look),
+    #: from the episode's seed; needs appearance. Off: every episode of a room looks the same
+    appearance_randomization: bool = False
 
 
 @dataclass(frozen=True)
@@ -95,7 +98,11 @@ def _generate(f: Fields) -> GenerateConfig:
         ambient_noise_db_a=f.float("ambient_noise_db_a", lo=0.0, hi=80.0),
         min_heard_peak_db_spl=f.float("min_heard_peak_db_spl", lo=0.0, hi=120.0),
         appearance=f.bool("appearance", True),
+        appearance_randomization=f.bool("appearance_randomization", False),
     )
+    if g.appearance_randomization and not g.appearance:
+        raise f.error("appearance_randomization", "needs appearance = true (a look is drawn on "
+                      "textured views)")
     if sum(g.episodes) == 0:
         raise e.error(SPLITS[0], "at least one episode is needed")
     f.reject_unknown()

@@ -402,3 +402,36 @@ def test_async_stepping_plays_the_same_episodes_as_lockstep(tiny_dataset):
                                            sensors=("pose",))
         assert set(played_by[i]) <= set(env.ids)
         env.close()
+
+
+def test_a_randomised_look_is_replayed(tiny_build, tiny_dataset, tmp_path):
+    """A build with ``appearance_randomization`` (generated from the tiny build's rehearsal):
+    its episodes' step-0 views differ from the plain build's in colour only, and the
+    environment draws each episode's own look again (its reset gives the stored view)."""
+    import shutil
+
+    import fallgen.dataset
+    from fallgen.cli import main
+    from fallgen.env import FallenObjectsEnv
+
+    base, cfg = tiny_build
+    out = tmp_path / "looks"
+    shutil.copytree(base / "one" / "rehearsal", out / "rehearsal")
+    c = tmp_path / "looks.toml"
+    c.write_text(cfg.read_text().replace('frames = "first"',
+                                         'frames = "first"\nappearance_randomization = true'))
+    with pytest.raises(SystemExit) as done:
+        main(["generate", "-c", str(c), "--out", str(out), "--workers", "1"])
+    assert not done.value.code
+    plain, looks = fallgen.dataset.open(tiny_dataset), fallgen.dataset.open(out)
+    assert looks.ids() == plain.ids()
+    e = FallenObjectsEnv(out, sensors=("rgb", "category_seg"))
+    try:
+        for eid in looks.ids()[:3]:
+            a, b = plain.get(eid), looks.get(eid)
+            assert np.array_equal(a["category_seg"], b["category_seg"])
+            assert not np.array_equal(a["rgb"], b["rgb"])
+            obs, _ = e.reset(options={"episode_id": eid})
+            assert np.array_equal(obs["rgb"], b["rgb"])
+    finally:
+        e.close()

@@ -108,6 +108,34 @@ def test_appearance_changes_only_the_colours(maker, world, events, episodes):
     assert detail_share(again.view.rgb) > detail_share(ep.view.rgb)
 
 
+def test_a_look_of_its_own_changes_only_the_colours(maker, world, events, episodes):
+    """``appearance_randomization``: each episode drawn in its own look (from its own seed): the
+    same episode otherwise (spawn, audio, expert, segmentation), and another episode id gives
+    another look of the same room."""
+    from fallgen.pipeline.episode import appearance_seed
+
+    ep = episodes[0]
+    i = next(k for k, e in enumerate(events) if e is ep.event)
+    plain = EpisodeMaker(world, maker.binaural, rir=maker.rir, appearance=True)
+    rand = EpisodeMaker(world, maker.binaural, rir=maker.rir, appearance=True,
+                        appearance_randomization=True)
+    try:
+        a = plain.make(ep.episode_id, events[i], 11)
+        b = rand.make(ep.episode_id, events[i], 11)
+        b2 = rand.make(ep.episode_id, events[i], 11)
+    finally:
+        plain.close()
+        rand.close()
+    assert b.spawn == a.spawn and b.expert.plan.actions == a.expert.plan.actions
+    assert np.array_equal(b.audio.audio, a.audio.audio)
+    assert np.array_equal(b.view.instance, a.view.instance)
+    assert np.array_equal(b.view.rgb, b2.view.rgb)
+    assert not np.array_equal(b.view.rgb, a.view.rgb)
+    assert appearance_seed(11, ep.episode_id) != appearance_seed(11, ep.episode_id + 1)
+    with pytest.raises(ValueError, match="appearance"):
+        EpisodeMaker(world, maker.binaural, appearance_randomization=True)
+
+
 def test_a_fall_too_quiet_to_hear_starts_no_episode(maker, events, episodes):
     """``min_heard_peak_db_spl``: an episode whose fall peaks below it at the agent is skipped
     ("inaudible"; the shard tries the episode's next event); at or under the heard level it

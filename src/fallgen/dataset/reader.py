@@ -77,6 +77,15 @@ class Dataset:
             return {}
         return dict(json.loads(path.read_text()).get("settings", {}).get("generate", {}))
 
+    @property
+    def root_seed(self) -> int | None:
+        """The root seed the dataset was built from (its manifest's), or None without one."""
+        path = self.root / "manifest.json"
+        if not path.is_file():
+            return None
+        seed = json.loads(path.read_text()).get("root_seed")
+        return None if seed is None else int(seed)
+
     def _attr(self, name: str) -> list[str]:
         for p in sorted((self.root / "media").glob("*.h5")):
             with h5py.File(p, "r") as f:

@@ -134,6 +134,9 @@ class FallenObjectsEnv(gym.Env):
         self.source = EpisodeSource(self.ds)
         #: the views look as the dataset's do (textured where it was built with appearance)
         self._appearance = bool(self.ds.generate_settings().get("appearance", False))
+        #: ... each episode in its own look, where the dataset drew one per episode
+        self._look_root = self.ds.root_seed if self.ds.generate_settings().get(
+            "appearance_randomization", False) else None
         first = self.ds.row(self.ids[0])
         self.audio_shape = tuple(self.ds.arrays(first, ("audio",))["audio"].shape)
         self.observation_space = spaces.Dict(self._spaces())
@@ -204,6 +207,7 @@ class FallenObjectsEnv(gym.Env):
         return obs, self._info(moved=False)
 
     def _load(self, episode_id: int) -> None:
+        from fallgen.pipeline.episode import appearance_seed
         from fallgen.pipeline.settled import SettledRoom
         from fallgen.vision.gl import GLContext
 
@@ -216,7 +220,9 @@ class FallenObjectsEnv(gym.Env):
         variant = ep.row["room_variant"]
         room = SettledRoom(self.world, ep.event, self._gl, self.category_labels,
                            self.spec_agent, self._room_samples.get(variant),
-                           appearance=self._appearance)
+                           appearance=self._appearance,
+                           look_seed=None if self._look_root is None
+                           else appearance_seed(self._look_root, episode_id))
         self._room_samples[variant] = room.static
         self._room_samples.move_to_end(variant)
         while len(self._room_samples) > 16:

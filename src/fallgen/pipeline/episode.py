@@ -72,6 +72,14 @@ def episode_rng(root_seed: int, episode_id: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence(root_seed, spawn_key=(episode_id,)))
 
 
+def appearance_seed(root_seed: int, episode_id: int) -> int:
+    """The seed of an episode's own look (:class:`fallgen.world.look.LookDraw`), when a build
+    randomises appearance: a child of the episode's seed sequence, so the episode's other draws
+    are the same with and without it."""
+    ss = np.random.SeedSequence(root_seed, spawn_key=(episode_id, 1))
+    return int(ss.generate_state(1)[0])
+
+
 @dataclass(frozen=True)
 class FallEnergy:
     """The fall's energy account: what its dry sound radiates (every source, J) against the
@@ -111,9 +119,13 @@ class EpisodeMaker:
 
     def __init__(self, world: World, binaural: Binaural, spec: AgentSpec = AgentSpec(),
                  rir: RirSettings = RirSettings(), noise_db_a: float = DEFAULT_NOISE_DB_A,
-                 min_heard_peak_db_spl: float = 0.0, appearance: bool = False) -> None:
+                 min_heard_peak_db_spl: float = 0.0, appearance: bool = False,
+                 appearance_randomization: bool = False) -> None:
         self.world, self.binaural, self.spec, self.rir = world, binaural, spec, rir
         self.appearance = appearance  # views with textures and shadows (world.scene.LOOK)
+        if appearance_randomization and not appearance:
+            raise ValueError("appearance_randomization needs appearance")
+        self.appearance_randomization = appearance_randomization  # each episode its own look
         self.min_heard_peak_db_spl = min_heard_peak_db_spl
         self.noise_db_a = noise_db_a
         self.sounds = FallRenderer(world)
@@ -147,7 +159,9 @@ class EpisodeMaker:
             self._gl = GLContext(WIDTH)
         settled = SettledRoom(world, event, self._gl, self.labels, spec,
                               self._room_samples.get(event.room_variant),
-                              appearance=self.appearance)
+                              appearance=self.appearance,
+                              look_seed=appearance_seed(root_seed, episode_id)
+                              if self.appearance_randomization else None)
         self._room_samples[event.room_variant] = settled.static
         variant, target = settled.variant, _instance(world, event.target)
         data, camera, grid = settled.data, settled.camera, settled.grid

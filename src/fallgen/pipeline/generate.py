@@ -167,7 +167,8 @@ def _maker(world: World, cfg: BuildConfig) -> EpisodeMaker:
                         rir=RirSettings(g.image_source_order, 44100, g.audio_s),
                         noise_db_a=g.ambient_noise_db_a,
                         min_heard_peak_db_spl=g.min_heard_peak_db_spl,
-                        appearance=g.appearance)
+                        appearance=g.appearance,
+                        appearance_randomization=g.appearance_randomization)
 
 
 def make_shard(world: World, maker: EpisodeMaker, cfg: BuildConfig, job: ShardJob,

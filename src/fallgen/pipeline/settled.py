@@ -11,6 +11,7 @@ Both answers are kept per pose (the scene is static), so a pose is rendered or r
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import mujoco
@@ -45,16 +46,20 @@ class SettledRoom:
     """The settled room of ``event``, compiled, with its grid and camera (drawn in ``context``,
     a long-lived :class:`GLContext` of the camera's size). ``labels``: the dataset's category
     table; ``static``: the room variant's own occupancy layer (:func:`room_samples`), when the
-    caller keeps it between episodes of one variant. Close it to free its render context."""
+    caller keeps it between episodes of one variant; ``appearance``: drawn with textures and
+    shadows, in the look drawn from ``look_seed`` when given (:mod:`fallgen.world.look`). Close
+    it to free its render context."""
 
     def __init__(self, world: World, event: FallEvent, context: GLContext,
                  labels: tuple[str, ...], spec: AgentSpec = AgentSpec(),
-                 static: np.ndarray | None = None, appearance: bool = False) -> None:
+                 static: np.ndarray | None = None, appearance: bool = False,
+                 look_seed: int | None = None) -> None:
         self.event, self.spec = event, spec
         self.variant = world.variant(event.room_variant)
         objects = settled_objects(world, event)
-        self.scene = build_scene(self.variant, world.materials, objects,
-                                 settings=LOOK if appearance else VIEW)
+        settings = VIEW if not appearance else \
+            LOOK if look_seed is None else dataclasses.replace(LOOK, look_seed=look_seed)
+        self.scene = build_scene(self.variant, world.materials, objects, settings=settings)
         self.data = self.scene.data()
         mujoco.mj_forward(self.scene.model, self.data)
         self.object_categories = {o.name: o.instance.category for o in objects}
