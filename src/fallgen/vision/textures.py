@@ -289,38 +289,46 @@ def _window(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
     return _to_image(level.astype(np.float32))
 
 
+def _cover(lo: float, hi: float, size: float, px: int) -> np.ndarray:
+    """(px,) share of each of ``px`` pixels spanning ``size`` that [lo, hi] covers: a line
+    thinner than a pixel drawn as the part of it it darkens (anti-aliased)."""
+    edges = np.arange(px + 1) * size / px
+    return np.clip(np.minimum(hi, edges[1:]) - np.maximum(lo, edges[:-1]), 0.0, None) \
+        * px / size
+
+
 def _doors(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
     """The front of a cabinet, counter or appliance, fitted to one face (``face_w_m`` x
     ``face_h_m``: the image spans the face once, stretched): doors about ``door_m`` wide under
     a row of drawers ``drawer_m`` high (0: none), parted by ``gap_m`` shadow gaps, each with a
-    handle (``handle``: how dark). The image's first row is the face's top edge."""
+    bar handle (``handle``: how dark), lines thinner than a pixel anti-aliased. The image's
+    first row is the face's top edge."""
     p = spec.param
-    w, h = p["face_w_m"], p["face_h_m"]
+    w, h, g = p["face_w_m"], p["face_h_m"], p["gap_m"]
     n = max(1, int(round(w / p["door_m"])))
-    x = (np.arange(px) + 0.5) / px * w  # metres across the face
-    y = (np.arange(px) + 0.5) / px * h  # metres down from its top edge
-    X, Y = np.meshgrid(x, y)
-    level = 0.012 * periodic_noise(rng, px, 1.0)
-    gap = np.zeros((px, px), bool)
-    half_gap = max(0.5 * p["gap_m"], 0.5 * max(w, h) / px)  # at least a pixel
-    for k in range(1, n):  # between doors (and between the drawers above them)
-        gap |= np.abs(X - k * w / n) < half_gap
-    drawer = p["drawer_m"]
-    if 0.0 < drawer < 0.7 * h:
-        gap |= np.abs(Y - drawer) < half_gap
-    gap |= (X < half_gap) | (X > w - half_gap) | (Y < half_gap) | (Y > h - half_gap)
-    handle = np.zeros((px, px), bool)
-    hw = max(0.012, 1.5 * w / px)  # a bar handle's width (at least a pixel and a half)
-    hl = min(0.14, 0.5 * h)  # ... and length
-    y0 = drawer if 0.0 < drawer < 0.7 * h else 0.0
+    # gaps between the doors (and the drawers above them), half gaps at the face's edges
+    gx = np.maximum.reduce([_cover(k * w / n - g / 2, k * w / n + g / 2, w, px)
+                            for k in range(n + 1)])
+    drawer = p["drawer_m"] if 0.0 < p["drawer_m"] < 0.7 * h else 0.0
+    rows = [0.0, h] + ([drawer] if drawer else [])
+    gy = np.maximum.reduce([_cover(r - g / 2, r + g / 2, h, px) for r in rows])
+    gap = np.minimum(1.0, np.maximum(gx[None, :], gy[:, None]))
+    handle = np.zeros((px, px))
+    hw, hl = 0.012, min(0.14, 0.5 * h)  # a bar handle's width and length
     for k in range(n):
         x0, x1 = k * w / n, (k + 1) * w / n
         # a door's handle by the edge it opens from (pairs meet in the middle), near its top
         hx = x1 - 0.05 if (k % 2 == 0 and k + 1 < n) or n == 1 else x0 + 0.05
-        handle |= (np.abs(X - hx) < hw / 2) & (Y > y0 + 0.05) & (Y < y0 + 0.05 + hl)
-        if y0 > 0:  # the drawer's handle, across its middle
-            handle |= (np.abs(Y - drawer / 2) < hw / 2) & (np.abs(X - (x0 + x1) / 2) < hl / 2)
-    level = np.where(gap, -0.45, np.where(handle, -0.35 * p["handle"], level))
+        handle = np.maximum(handle, _cover(drawer + 0.05, drawer + 0.05 + hl, h, px)[:, None]
+                            * _cover(hx - hw / 2, hx + hw / 2, w, px)[None, :])
+        if drawer:  # the drawer's handle, across its middle
+            xm = (x0 + x1) / 2
+            handle = np.maximum(handle,
+                                _cover(drawer / 2 - hw / 2, drawer / 2 + hw / 2, h, px)[:, None]
+                                * _cover(xm - hl / 2, xm + hl / 2, w, px)[None, :])
+    handle = np.minimum(handle, 1.0)
+    level = 0.012 * periodic_noise(rng, px, 1.0) - 0.45 * gap \
+        - 0.5 * p["handle"] * handle * (1.0 - gap)
     return _to_image(level.astype(np.float32))
 
 

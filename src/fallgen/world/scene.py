@@ -237,6 +237,55 @@ def _look(spec: mujoco.MjSpec, g, texture, rgba, repeat: tuple[float, float] | N
         m.emission = emission
         m.specular = SPECULAR.get(texture.kind, 0.2)
     g.material = mat_name
+    # a geom's own colour overrides its material's (MuJoCo): the same, so the material's holds
+    g.rgba = list(spec.material(mat_name).rgba)
+
+
+#: Pixels per side of an object's texture (its cube map's faces).
+OBJECT_TEXTURE_PX = 64
+
+#: How glossy an object of each audio material looks (MuJoCo's material specular, shininess):
+#: glass, glazed ceramic and metal shine, varnished wood and hard plastics a little, cloth,
+#: paper, cardboard and foam hardly.
+GLOSS: dict[str, tuple[float, float]] = {
+    "glass": (0.9, 0.9), "metal": (0.8, 0.7), "ceramic": (0.6, 0.8), "stone": (0.4, 0.6),
+    "plastic_hard": (0.4, 0.5), "wood_hard": (0.3, 0.4), "wood_medium": (0.25, 0.3),
+    "wood_soft": (0.15, 0.2), "rubber": (0.1, 0.2), "leather": (0.2, 0.3),
+    "plastic_soft_foam": (0.05, 0.1), "fabric": (0.02, 0.05), "paper": (0.05, 0.1),
+    "cardboard": (0.05, 0.1),
+}
+
+
+def _object_look(spec: mujoco.MjSpec, g, material, rgba, look: LookDraw | None) -> None:
+    """Draw an object's visual mesh as its material looks: glossy or matte by its audio
+    material, and with the material's texture where it has one (a cube texture: MuJoCo projects
+    it onto a mesh without texture coordinates, at its size, as it does a box's faces)."""
+    from fallgen.vision.textures import texture_bytes
+
+    texture = material.texture
+    if texture is not None and look is not None:
+        texture = look.texture(texture)
+    name = f"obj_{material.name}" + (f"_{texture.key()}" if texture is not None else "") \
+        + "_" + "_".join(f"{c:.3f}" for c in rgba)
+    if spec.material(name) is None:
+        m = spec.add_material(name=name)
+        m.specular, m.shininess = GLOSS.get(material.audio, (0.3, 0.3))
+        m.rgba = list(rgba)
+        if texture is not None:
+            from fallgen.vision.textures import MEAN_LEVEL
+
+            tex_name = f"cube_{texture.key()}"
+            if spec.texture(tex_name) is None:
+                t = spec.add_texture(name=tex_name, type=mujoco.mjtTexture.mjTEXTURE_CUBE)
+                # 64 px: an object a few metres away covers a few dozen pixels of a view
+                w, h, n, data = texture_bytes(texture, OBJECT_TEXTURE_PX)
+                t.width, t.height, t.nchannel, t.data = w, 6 * h, n, data * 6  # every face
+            m.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = tex_name
+            m.texuniform = True
+            m.texrepeat = [2.0 / texture.size_m, 2.0 / texture.size_m]
+            m.rgba = [*(min(1.0, c / MEAN_LEVEL) for c in rgba[:3]), rgba[3]]
+    g.material = name
+    g.rgba = list(spec.material(name).rgba)  # the geom's colour would override the material's
 
 
 def _set_contact(g, mats: MaterialLibrary, material: str, friction_sliding: float | None = None):
@@ -263,8 +312,11 @@ def build_spec(
     room, room_info = room_spec(variant, mats, settings)
     spec = room.copy()
     info = dict(room_info)
+    # the objects' own draws (the room's look is drawn once per variant and seed, then kept)
+    look = LookDraw(settings.look_seed + 1) if settings.appearance \
+        and settings.look_seed is not None else None
     for obj in objects:
-        _add_object(spec, mats, obj, settings, info)
+        _add_object(spec, mats, obj, settings, info, look)
 
     if agent is not None:
         body = spec.worldbody.add_body()
@@ -444,7 +496,8 @@ def _build_room_spec(variant: RoomVariant, mats: MaterialLibrary, settings: Phys
 
 
 def _add_object(spec: mujoco.MjSpec, mats: MaterialLibrary, obj: PlacedObject,
-                settings: PhysicsSettings, info: dict[str, tuple[str, str]]) -> None:
+                settings: PhysicsSettings, info: dict[str, tuple[str, str]],
+                look: LookDraw | None = None) -> None:
     inst = obj.instance
     s = inst.scale
     geo = inst.geometry
@@ -475,6 +528,10 @@ def _add_object(spec: mujoco.MjSpec, mats: MaterialLibrary, obj: PlacedObject,
         g.contype = g.conaffinity = 0
         g.group = VISUAL_GROUP
         g.rgba = _rgba(inst.material.rgba)
+        if settings.appearance:
+            if look is not None:
+                g.rgba = look.colour(("object", obj.name), g.rgba)
+            _object_look(spec, g, inst.material, g.rgba, look)
         info[g.name] = (prefix, inst.material.name)
     for k, piece in enumerate(geo.collision if settings.collision_meshes else ()):
         m = spec.add_mesh()
