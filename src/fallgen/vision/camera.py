@@ -29,10 +29,11 @@ from fallgen.world.scene import WALL_OWNERS, Scene
 
 WIDTH = HEIGHT = 300
 FOV_DEG = 90.0
-#: Shadow map size (pixels a side) where the scene's light casts shadows: ~3 cm a texel over
-#: its cone in a room. The depth pass draws the map's pixels: 1024 cost 6 ms more a view and
-#: 30 ms more a camera than 512 on a CPU renderer (MuJoCo's default 4096, ~40 ms a context).
-SHADOW_MAP_PX = 512
+#: Shadow map size (pixels a side) where the scene's light casts shadows: ~6 cm a texel over
+#: its cone in a room (soft-edged shadows of tables and chairs). The depth pass draws the map's
+#: pixels: 1024 cost 6 ms more a view and 30 ms more a camera than 512 on a CPU renderer, 512
+#: 3-4 ms more a view than 256 (MuJoCo's default 4096, ~40 ms a context).
+SHADOW_MAP_PX = 256
 #: How far (pixels) beyond the projected outline of an object's boxes a drawn pixel's centre may
 #: lie: float32 rounding in the renderer's projection is ~1e-4 pixel; tests/vision checks
 #: that the bound holds over thousands of random views.

@@ -204,6 +204,11 @@ def _front_frame(half, quat) -> tuple[list[float], list[float]]:
     return [float(half[0]), float(half[2]), float(half[1])], list(q)
 
 
+#: Pixels per side of a texture fitted to one face (a front's doors, a sofa's cushions): flat
+#: panels between anti-aliased lines, the same at half the resolution of a surface's texture.
+FITTED_TEXTURE_PX = 64
+
+
 def _look(spec: mujoco.MjSpec, g, texture, rgba, repeat: tuple[float, float] | None = None,
           emission: float = 0.0) -> None:
     """Draw geom ``g`` with ``texture`` (a :class:`~fallgen.world.appearance.TextureSpec`)
@@ -216,7 +221,8 @@ def _look(spec: mujoco.MjSpec, g, texture, rgba, repeat: tuple[float, float] | N
     tex_name = f"tex_{texture.key()}"
     if spec.texture(tex_name) is None:
         t = spec.add_texture(name=tex_name, type=mujoco.mjtTexture.mjTEXTURE_2D)
-        w, h, n, data = texture_bytes(texture)
+        w, h, n, data = texture_bytes(texture) if repeat is None \
+            else texture_bytes(texture, FITTED_TEXTURE_PX)
         t.width, t.height, t.nchannel, t.data = w, h, n, data
     colour = [min(1.0, float(c) / MEAN_LEVEL) for c in rgba[:3]]
     window = texture.kind == "window"
