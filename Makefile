@@ -50,6 +50,7 @@ bench: setup
 	$(PY) bench/generate_bench.py | tee build/bench-generate.json
 	$(PY) bench/build_bench.py | tee build/bench-build.json
 	$(PY) bench/env_bench.py --dataset build/smoke | tee build/bench-env.json
+	$(PY) bench/appearance.py | tee build/bench-appearance.json
 	$(PY) bench/report.py build
 
 ## loudness: the dry peak and Leq at 1 m of reference drops onto a parquet and a tiled floor

@@ -4,7 +4,10 @@ against textures and shadows, side by side on the same poses; a before/after PNG
     python bench/appearance.py [--views 64] [--seed 0] [--png docs/appearance.png]
 
 Poses: ``--views`` random free positions of the robot (clearance >= its radius, any of the
-12 headings, tilt 0, as at step 0) over the 64 variants, drawn from ``--seed``. Detail share:
+12 headings, tilt 0, as at step 0) over the 64 variants, drawn from ``--seed``; flat colours,
+textured, and textured in a look of each view's own (appearance randomisation: its textures
+drawn anew, so the scene's cost includes drawing them). Per view: the RGB pass, the depth and
+segmentation pass, and making the scene and its camera. Detail share:
 the share of pixels whose grey level varies by more than 3 (standard deviation) in a 5 x 5
 window. Prints one JSON line.
 """
@@ -12,6 +15,7 @@ window. Prints one JSON line.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 import time
@@ -65,17 +69,20 @@ def main() -> None:
     poses = _free_poses(world, np.random.default_rng(args.seed), args.views)
     ctx = GLContext(300)
     result: dict[str, dict] = {}
-    for tag, settings in (("flat", FLAT), ("textured", LOOK)):
-        shares, render_s, scene_s = [], 0.0, 0.0
-        for vid, pose in poses:
+    for tag, settings in (("flat", FLAT), ("textured", LOOK), ("randomised", None)):
+        shares, render_s, scene_s, depth_s = [], 0.0, 0.0, 0.0
+        for k, (vid, pose) in enumerate(poses):
             t0 = time.perf_counter()
-            scene = build_scene(world.variant(vid), world.materials, settings=settings)
+            look = settings or dataclasses.replace(LOOK, look_seed=args.seed * 1000 + k)
+            scene = build_scene(world.variant(vid), world.materials, settings=look)
             d = scene.data()
             mujoco.mj_forward(scene.model, d)
             cam = EgoCamera(scene, context=ctx)
             t1 = time.perf_counter()
             rgb = cam.render(d, pose, "rgb").rgb
             t2 = time.perf_counter()
+            cam.render(d, pose, "depth")  # depth and segmentation: one pass
+            depth_s += time.perf_counter() - t2
             cam.close()
             shares.append(detail_share(rgb))
             render_s += t2 - t1
@@ -84,6 +91,7 @@ def main() -> None:
         result[tag] = {"detail_mean": round(float(s.mean()), 3),
                        "detail_p10": round(float(np.percentile(s, 10)), 3),
                        "rgb_ms_per_view": round(1000 * render_s / len(poses), 1),
+                       "depth_seg_ms_per_view": round(1000 * depth_s / len(poses), 1),
                        "scene_and_camera_ms": round(1000 * scene_s / len(poses), 1)}
     if args.png is not None:
         rows = []

@@ -52,6 +52,12 @@ def main() -> None:
         head["env_vector_speedup_2_workers_lockstep"] = e["vector_lockstep"]["speedup"]
         head["env_peak_worker_mb"] = e["vector"]["peak_worker_mb"]
         head["env_ratio_vs_tdw_published"] = e["ratio_vs_tdw_published"]
+    a = parts.get("appearance", {})
+    if a:  # how the rooms look: flat colours against textures, per 300 px view
+        for tag in ("flat", "textured"):
+            for k in ("detail_mean", "detail_p10", "rgb_ms_per_view", "depth_seg_ms_per_view"):
+                if k in a.get(tag, {}):
+                    head[f"view_{tag}_{k}"] = a[tag][k]
     for name in ("impact", "room"):
         r = parts.get(name, {})
         head.update({f"{name}_{k}": v for k, v in r.items()
