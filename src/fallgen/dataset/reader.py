@@ -35,6 +35,7 @@ import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from fallgen.config import SPLITS
+from fallgen.dataset.manifest import MANIFEST
 
 #: HDF5 array -> key in an episode dict
 ARRAYS = {"audio": "audio", "rgb": "rgb", "depth": "depth", "instance": "instance_seg",
@@ -69,21 +70,21 @@ class Dataset:
     def __len__(self) -> int:
         return sum(pq.read_metadata(p).num_rows for p in self.shards)
 
+    @cached_property
+    def _manifest(self) -> dict:
+        """The manifest (read once), or {} for a dataset without one."""
+        path = self.root / MANIFEST
+        return json.loads(path.read_text()) if path.is_file() else {}
+
     def generate_settings(self) -> dict:
         """The ``[generate]`` settings the dataset was built with (its manifest's), or {} where
         the manifest has none."""
-        path = self.root / "manifest.json"
-        if not path.is_file():
-            return {}
-        return dict(json.loads(path.read_text()).get("settings", {}).get("generate", {}))
+        return dict(self._manifest.get("settings", {}).get("generate", {}))
 
     @property
     def root_seed(self) -> int | None:
         """The root seed the dataset was built from (its manifest's), or None without one."""
-        path = self.root / "manifest.json"
-        if not path.is_file():
-            return None
-        seed = json.loads(path.read_text()).get("root_seed")
+        seed = self._manifest.get("root_seed")
         return None if seed is None else int(seed)
 
     def _attr(self, name: str) -> list[str]:

@@ -133,10 +133,11 @@ class FallenObjectsEnv(gym.Env):
                              "other world data than this environment loads (pass data_dir=)")
         self.source = EpisodeSource(self.ds)
         #: the views look as the dataset's do (textured where it was built with appearance)
-        self._appearance = bool(self.ds.generate_settings().get("appearance", False))
+        built = self.ds.generate_settings()
+        self._appearance = bool(built.get("appearance", False))
         #: ... each episode in its own look, where the dataset drew one per episode
-        self._look_root = self.ds.root_seed if self.ds.generate_settings().get(
-            "appearance_randomization", False) else None
+        self._look_root = self.ds.root_seed if built.get("appearance_randomization", False) \
+            else None
         first = self.ds.row(self.ids[0])
         self.audio_shape = tuple(self.ds.arrays(first, ("audio",))["audio"].shape)
         self.observation_space = spaces.Dict(self._spaces())

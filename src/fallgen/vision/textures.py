@@ -256,8 +256,8 @@ def _spines(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
     with a lighter label band, parted by dark gaps."""
     p = spec.param
     edges = [0]
+    w = spec.size_m / px  # metres per pixel
     while edges[-1] < px:
-        w = spec.size_m / px  # metres per pixel
         edges.append(edges[-1] + max(2, int(round(rng.uniform(0.5, 1.5) * p["spine_m"] / w))))
     edges[-1] = px  # the last spine ends at the image's edge (it wraps onto the first)
     level = np.zeros((px, px), np.float32)

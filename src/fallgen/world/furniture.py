@@ -396,6 +396,7 @@ _WHITE = (0.9, 0.9, 0.88, 1.0)
 _STEEL = (0.62, 0.63, 0.65, 1.0)
 _DARK = (0.18, 0.18, 0.2, 1.0)
 
+
 def _doors(door_m: float, drawer_m: float) -> dict[str, tuple[str, str, dict[str, float]]]:
     """The body's front: doors about ``door_m`` wide under drawers ``drawer_m`` high."""
     return {"body": ("doors", "front", {"door_m": door_m, "drawer_m": drawer_m})}

@@ -171,19 +171,22 @@ def _face_frame(center, half, room_centre) -> tuple[list[float], list[float]]:
     return [half[along_axis], half[2], half[thin]], list(quat)
 
 
-def _thin_axis_up(half, quat, axis: int | None = None) -> tuple[list[float], list[float]]:
+def _thin_axis_up(half, quat, axis: int | None = None, front: bool = False
+                  ) -> tuple[list[float], list[float]]:
     """(half sizes, quaternion) of the same box with its thinnest axis (or ``axis``) as local
     z (a 2D texture shows at its size on the box's +-z faces only: these become its
-    largest, or those across ``axis``)."""
+    largest, or those across ``axis``). ``front``: the box's front (local -y) as its +z face,
+    x along its width and y up, so that a texture fitted to the face shows upright, its
+    first row at the top."""
     half = np.asarray(half, float)
-    k = int(np.argmin(half)) if axis is None else axis
+    k = 1 if front else int(np.argmin(half)) if axis is None else axis
     if k == 2:
         return list(half), list(quat)
     i, j = [a for a in (0, 1, 2) if a != k]
     base = np.zeros(9)
     mujoco.mju_quat2Mat(base, np.asarray(quat, float))
     cols = base.reshape(3, 3)
-    z = cols[:, k]
+    z = -cols[:, k] if front else cols[:, k]
     x = cols[:, i]
     y = np.cross(z, x)  # right-handed: (x, y, z) with y = z cross x
     q = np.zeros(4)
@@ -191,22 +194,18 @@ def _thin_axis_up(half, quat, axis: int | None = None) -> tuple[list[float], lis
     return [half[i], half[j], half[k]], list(q)
 
 
-def _front_frame(half, quat) -> tuple[list[float], list[float]]:
-    """(half sizes, quaternion) of the same box with its front (local -y) as its +z face, x
-    along its width and y up: a texture fitted to the face shows upright, its first row at
-    the top."""
-    base = np.zeros(9)
-    mujoco.mju_quat2Mat(base, np.asarray(quat, float))
-    cols = base.reshape(3, 3)
-    x, z = cols[:, 0], -cols[:, 1]
-    q = np.zeros(4)
-    mujoco.mju_mat2Quat(q, np.column_stack([x, np.cross(z, x), z]).ravel())
-    return [float(half[0]), float(half[2]), float(half[1])], list(q)
-
-
 #: Pixels per side of a texture fitted to one face (a front's doors, a sofa's cushions): flat
 #: panels between anti-aliased lines, the same at half the resolution of a surface's texture.
 FITTED_TEXTURE_PX = 64
+
+
+def _untinted(rgba) -> list[float]:
+    """The colour a material gives a texture so that the textured surface has ``rgba``'s
+    colour on average (textures are patterns around :data:`~fallgen.vision.textures.
+    MEAN_LEVEL`)."""
+    from fallgen.vision.textures import MEAN_LEVEL
+
+    return [min(1.0, float(c) / MEAN_LEVEL) for c in rgba[:3]]
 
 
 def _look(spec: mujoco.MjSpec, g, texture, rgba, repeat: tuple[float, float] | None = None,
@@ -216,7 +215,7 @@ def _look(spec: mujoco.MjSpec, g, texture, rgba, repeat: tuple[float, float] | N
     the spec, the texture repeated every ``texture.size_m`` metres of the geom's faces (or
     ``repeat`` times per metre along their x and y, from the corner: a texture fitted to a
     face); ``emission``: the share of its colour it shows unlit (a window: its own)."""
-    from fallgen.vision.textures import MEAN_LEVEL, texture_bytes
+    from fallgen.vision.textures import texture_bytes
 
     tex_name = f"tex_{texture.key()}"
     if spec.texture(tex_name) is None:
@@ -224,7 +223,7 @@ def _look(spec: mujoco.MjSpec, g, texture, rgba, repeat: tuple[float, float] | N
         w, h, n, data = texture_bytes(texture) if repeat is None \
             else texture_bytes(texture, FITTED_TEXTURE_PX)
         t.width, t.height, t.nchannel, t.data = w, h, n, data
-    colour = [min(1.0, float(c) / MEAN_LEVEL) for c in rgba[:3]]
+    colour = _untinted(rgba)
     window = texture.kind == "window"
     emission = WINDOW_EMISSION if window else emission
     mat_name = f"{tex_name}_" + "_".join(f"{c:.3f}" for c in colour) \
@@ -278,8 +277,6 @@ def _object_look(spec: mujoco.MjSpec, g, material, rgba, look: LookDraw | None) 
         m.specular, m.shininess = GLOSS.get(material.audio, (0.3, 0.3))
         m.rgba = list(rgba)
         if texture is not None:
-            from fallgen.vision.textures import MEAN_LEVEL
-
             tex_name = f"cube_{texture.key()}"
             if spec.texture(tex_name) is None:
                 t = spec.add_texture(name=tex_name, type=mujoco.mjtTexture.mjTEXTURE_CUBE)
@@ -289,7 +286,7 @@ def _object_look(spec: mujoco.MjSpec, g, material, rgba, look: LookDraw | None) 
             m.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = tex_name
             m.texuniform = True
             m.texrepeat = [2.0 / texture.size_m, 2.0 / texture.size_m]
-            m.rgba = [*(min(1.0, c / MEAN_LEVEL) for c in rgba[:3]), rgba[3]]
+            m.rgba = [*_untinted(rgba), rgba[3]]
     g.material = name
     g.rgba = list(spec.material(name).rgba)  # the geom's colour would override the material's
 
@@ -319,8 +316,7 @@ def build_spec(
     spec = room.copy()
     info = dict(room_info)
     # the objects' own draws (the room's look is drawn once per variant and seed, then kept)
-    look = LookDraw(settings.look_seed + 1) if settings.appearance \
-        and settings.look_seed is not None else None
+    look = None if settings.look_seed is None else LookDraw(settings.look_seed + 1)
     for obj in objects:
         _add_object(spec, mats, obj, settings, info, look)
 
@@ -393,8 +389,8 @@ def _build_room_spec(variant: RoomVariant, mats: MaterialLibrary, settings: Phys
     wb = spec.worldbody
     lx, ly, h = variant.size_m
     t = WALL_THICKNESS_M
-    look = LookDraw(settings.look_seed) if settings.appearance \
-        and settings.look_seed is not None else None
+    look = None if settings.look_seed is None else LookDraw(settings.look_seed)
+    lit = list if look is None else look.light  # a light's colour in the room's look
 
     def shell(name: str, surface_key: str, center, half) -> None:
         s = variant.surfaces[surface_key]
@@ -431,16 +427,14 @@ def _build_room_spec(variant: RoomVariant, mats: MaterialLibrary, settings: Phys
         light.name = f"ceiling_light{i}"
         light.pos = [x, y, h - 0.05]
         light.dir = [0.0, 0.0, -1.0]
-        light.diffuse = [0.22, 0.22, 0.21] if settings.appearance else [0.45, 0.45, 0.43]
-        if look is not None:
-            light.diffuse = look.light(light.diffuse)
+        light.diffuse = lit([0.22, 0.22, 0.21] if settings.appearance else [0.45, 0.45, 0.43])
         light.castshadow = False
         if settings.appearance:  # the fitting lights the ceiling around it too
             up = wb.add_light()
             up.name = f"ceiling_light{i}_up"
             up.pos = [x, y, h - 0.3]
             up.dir = [0.0, 0.0, 1.0]
-            up.diffuse = [0.2, 0.2, 0.19] if look is None else look.light([0.2, 0.2, 0.19])
+            up.diffuse = lit([0.2, 0.2, 0.19])
             up.cutoff = 80.0
             up.castshadow = False
     if settings.appearance:
@@ -450,7 +444,7 @@ def _build_room_spec(variant: RoomVariant, mats: MaterialLibrary, settings: Phys
         main.name = "ceiling_light_main"
         main.pos = [lx / 2, ly / 2, h - 0.05]
         main.dir = [0.0, 0.0, -1.0]
-        main.diffuse = [0.45, 0.45, 0.43] if look is None else look.light([0.45, 0.45, 0.43])
+        main.diffuse = lit([0.45, 0.45, 0.43])
         main.cutoff = 70.0
         main.castshadow = True
 
@@ -467,7 +461,7 @@ def _build_room_spec(variant: RoomVariant, mats: MaterialLibrary, settings: Phys
         g.pos = list(b.center)
         g.quat = list(b.quat)
         g.rgba = _rgba(part.rgba or mats.object(part.material).rgba)
-        if look is not None and settings.appearance:
+        if look is not None:
             g.rgba = look.colour(("part", item.id, part.role), g.rgba)
         texture = mats.object(part.material).texture
         fitted = FURNITURE[item.type].fronts.get(part.name) if part.shape == "box" else None
@@ -477,7 +471,7 @@ def _build_room_spec(variant: RoomVariant, mats: MaterialLibrary, settings: Phys
             fw = 2 * b.half[0]
             if face == "front":  # local -y
                 fh = 2 * b.half[2]
-                g.size, g.quat = _front_frame(b.half, b.quat)
+                g.size, g.quat = _thin_axis_up(b.half, b.quat, front=True)
             else:  # the top: already its +z face
                 fh = 2 * b.half[1]
             texture = TextureSpec.make(kind, **params, face_w_m=round(fw, 4),
