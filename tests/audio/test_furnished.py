@@ -117,6 +117,18 @@ def test_rug_and_curtains_cover_floor_and_wall(world):
     assert 0.5 <= np.mean(lib.object("fabric/drape").absorption[2:4]) <= 0.7
 
 
+def test_decor_is_not_acoustic(world):
+    """A plant's foliage and a picture on a wall are decor: the furnished room has the plant's
+    pot and not its leaves, and none of the pictures."""
+    v = world.variant("study_lounge-l1-m1")
+    names = set(furnishing(v, world.materials).names)
+    assert "plant1/pot" in names
+    decor = {f"{it.id}/{p.name}" for it, p in v.parts() if p.decor}
+    assert any(n.startswith("plant1/leaves") for n in decor)
+    assert any(n.startswith("picture_") for n in decor)
+    assert not names & decor
+
+
 def test_furniture_in_a_ray_traced_room():
     """An absorbing cube (alpha 0.8) in a room of diffuse walls: the traced T30 is Eyring's
     over the furnished boundary within 10 % (the ray tracer sees the part's faces)."""

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import mujoco
 import numpy as np
 import pytest
 from scipy.ndimage import distance_transform_edt
@@ -48,6 +49,25 @@ def test_room_occupancy_marks_furniture_and_keeps_aisles(world):
     assert 0.1 < g.occupied.mean() < 0.6
     assert (g.clearance >= 0.25).sum() > 200  # room to drive
     assert g.clearance[0].max() <= 0.1  # next to the west wall
+
+
+def test_a_plants_foliage_is_an_obstacle(world):
+    """A plant's foliage collides with nothing, but the robot cannot drive through it: the
+    grid marks the cells under the leaves beyond the pot."""
+    v = world.variant("study_lounge-l1-m1")
+    scene = build_scene(v, world.materials, [])
+    m = scene.model
+    plant = next(it for it in v.furniture if it.id == "plant1")
+    leaves = [g for g in range(m.ngeom) if scene.geom_owner[g] == "plant1"
+              and m.geom_type[g] == mujoco.mjtGeom.mjGEOM_ELLIPSOID]
+    assert leaves and all(m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0 for g in leaves)
+    g = occupancy(scene)
+    x, y = plant.pose[:2]
+    pot_r = next(p for p in plant.parts if p.name == "pot").box.half[0]
+    # a point under the foliage, outside the pot (toward the room, away from the wall)
+    out = np.array([x, y]) + (pot_r + 0.06) * np.array(
+        [math.sin(plant.pose[3]), -math.cos(plant.pose[3])])
+    assert g.occupied[g.cell(out)]
 
 
 def test_room_layer_plus_objects_is_the_whole_grid(world):

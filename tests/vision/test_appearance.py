@@ -250,3 +250,72 @@ def test_objects_look_like_their_material(world):
         assert has_tex == textured
         if audio == "glass":
             assert m.geom_rgba[g, 3] < 0.5
+
+
+def test_a_plant_is_drawn_in_leaves_and_segmented_as_a_plant(world):
+    """A plant's foliage (decor ellipsoids) is drawn, with its leaves' cube texture when the
+    room is textured, and its pixels are the plant's in the segmentation, the same pixels
+    flat and textured."""
+    import math
+
+    v = world.variant("study_lounge-l1-m1")
+    plant = next(it for it in v.furniture if it.id == "plant1")
+    x, y, _, yaw = plant.pose
+    # 0.9 m in front of it, looking at it (the armchair beside it hides it from farther)
+    fx, fy = math.sin(yaw), -math.cos(yaw)
+    heading = int(round(math.atan2(-fy, -fx) / math.radians(30))) % 12
+    pose = Pose(x + 0.9 * fx, y + 0.9 * fy, heading, -30)
+    views = {}
+    for name, settings in (("flat", FLAT), ("look", LOOK)):
+        scene = build_scene(v, world.materials, settings=settings)
+        d = scene.data()
+        mujoco.mj_forward(scene.model, d)
+        cam = EgoCamera(scene)
+        try:
+            views[name] = cam.render(d, pose)
+            categories = cam.categories
+        finally:
+            cam.close()
+        if name == "look":
+            m = scene.model
+            leaves = [g for g in range(m.ngeom) if scene.geom_owner[g] == "plant1"
+                      and m.geom_type[g] == mujoco.mjtGeom.mjGEOM_ELLIPSOID]
+            tex = m.mat_texid[m.geom_matid[leaves[0]], mujoco.mjtTextureRole.mjTEXROLE_RGB]
+            assert tex >= 0 and m.tex_type[tex] == mujoco.mjtTexture.mjTEXTURE_CUBE
+    flat, look = views["flat"], views["look"]
+    assert flat.pixels_of("plant1") > 2000
+    assert np.array_equal(flat.instance, look.instance)
+    mask = look.category == categories.index("plant")
+    assert np.array_equal(mask, look.instance == look.instances.index("plant1"))
+    # mostly green (its pot is terracotta), and textured: the leaves and the shade between
+    g = look.rgb[mask].astype(float)
+    assert (g[:, 1] > g[:, 0]).mean() > 0.75 and (g[:, 1] > g[:, 2]).mean() > 0.75
+    assert g[:, 1].std() > 8.0
+
+
+def test_a_cooker_shows_its_knobs_and_burners():
+    """The cooker's front: ``knobs`` dark round knobs evenly across the control strip, an
+    oven handle under it; its top: four burners, each a dark cap at a quarter point of the
+    face inside a dark grate ring."""
+    from fallgen.vision.textures import render_texture
+    from fallgen.world.appearance import TextureSpec
+
+    w, h, strip = 0.76, 0.87, 0.12
+    front = render_texture(TextureSpec.make("doors", door_m=2.0, drawer_m=strip, knobs=4,
+                                            face_w_m=w, face_h_m=h)).mean(axis=2)
+    px = front.shape[0]
+    band = front[:int(px * strip / h)]  # the control strip
+    dark = (band < band.mean() - 40).sum(axis=0) >= 4  # columns through a knob
+    runs = np.split(np.flatnonzero(dark), np.flatnonzero(np.diff(np.flatnonzero(dark)) > 1) + 1)
+    centres = [r.mean() / px * w for r in runs if len(r) > 2]
+    assert len(centres) == 4
+    assert np.allclose(centres, [(k + 0.5) * w / 4 for k in range(4)], atol=0.01)
+    below = front[int(px * (strip + 0.05) / h)]  # the oven's bar handle
+    assert (below < below.mean() - 20).mean() > 0.5
+    top = render_texture(TextureSpec.make("hob", burner_m=0.2, face_w_m=w,
+                                          face_h_m=0.62)).mean(axis=2)
+    mean = top.mean()
+    for cx in (0.25, 0.75):
+        for cy in (0.25, 0.75):
+            assert top[int(cy * px), int(cx * px)] < mean - 60  # a cap
+    assert top[px // 2, px // 2] > mean  # the top's own finish between them

@@ -202,6 +202,33 @@ def test_pictures_hang_on_walls_clear_of_zones_and_the_robot(world):
                             (v.id, it.id, z.anchor)
 
 
+def test_plants_stand_clear_of_zones_and_are_decor(world):
+    """Most layouts have potted plants; a plant's pot is solid, its foliage decor (drawn, not
+    simulated or heard), all of it inside its footprint and height, on the floor, and no
+    zone's settle volume or drop region comes within 10 cm of it (it changes no fall)."""
+    layouts = set()
+    for v in _all(world):
+        for it in (it for it in v.furniture if it.type == "plant"):
+            layouts.add((v.room, v.layout))
+            pot = [p for p in it.parts if p.name == "pot"]
+            leaves = [p for p in it.parts if p.name.startswith("leaves")]
+            assert len(pot) == 1 and not pot[0].decor and pot[0].shape == "cylinder"
+            assert leaves and all(p.decor and p.shape == "ellipsoid" for p in leaves)
+            assert {p.material for p in it.parts} == {"ceramic", "wood_soft/foliage"}
+            w, d, h = it.size
+            for p in it.parts:
+                lo, hi = p.box.aabb()
+                assert lo[2] >= -1e-9 and hi[2] <= h + 1e-9, (v.id, it.id, p.name)
+                assert np.all(np.abs(np.array(p.box.center[:2]) - it.pose[:2])
+                              + np.array(p.box.half[:2]) <= max(w, d) / 2 + 1e-9), (v.id, it.id)
+                for z in v.zones:
+                    for box in (z.volume, z.drop):
+                        a, b = box.aabb()
+                        gap = np.maximum(0.0, np.maximum(a[:2] - hi[:2], lo[:2] - b[:2]))
+                        assert np.hypot(*gap) >= 0.1 - 1e-9, (v.id, it.id, z.anchor)
+    assert len(layouts) >= 24, sorted(layouts)
+
+
 def test_items_of_one_material_set(world):
     """``sets`` puts an item in some material sets only: study_lounge's m2 (wall-to-wall
     carpet) has no rug and no curtains, its m1 has both; the zones are the same."""
@@ -243,6 +270,15 @@ def _room_file(tmp_path, world, edit):
     (lambda s: s.replace('along = 1.55, z_m = 1.35, size = [1.0, 0.04, 0.7]',
                          'along = 1.55, z_m = 1.35, size = [1.0, 0.04, 0.3], '
                          'params = { frame_m = 0.15 }'), "].size"),
+    (lambda s: s.replace('pot_diameter_m = 0.26, pot_height_m = 0.26, lobes = 6',
+                         'pot_diameter_m = 0.5, pot_height_m = 0.26, lobes = 6'),
+     "].params.pot_diameter_m"),
+    (lambda s: s.replace('pot_diameter_m = 0.26, pot_height_m = 0.26, lobes = 6',
+                         'pot_diameter_m = 0.26, pot_height_m = 0.7, lobes = 6'),
+     "].params.pot_height_m"),
+    (lambda s: s.replace('pot_diameter_m = 0.26, pot_height_m = 0.26, lobes = 6',
+                         'pot_diameter_m = 0.26, pot_height_m = 0.26, lobes = 12'),
+     "].params.lobes"),
 ])
 def test_bad_soft_furnishing_is_one_error(tmp_path, world, edit, field):
     from fallgen.errors import InputError

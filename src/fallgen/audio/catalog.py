@@ -66,6 +66,8 @@ def jobs(world: World, variants: Collection[str] | None = None,
                 if is_panel(owner) or owner == "agent" or \
                         parts is not None and (variant.id, gid) not in parts:
                     continue
+                if m.geom_contype[gid] == 0 and m.geom_conaffinity[gid] == 0:
+                    continue  # decor: nothing strikes it
                 gtype = int(m.geom_type[gid])
                 mesh = part_mesh(gtype, m.geom_size[gid])
                 kind = "cylinder" if gtype == int(mujoco.mjtGeom.mjGEOM_CYLINDER) else "box"

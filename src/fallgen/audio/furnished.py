@@ -1,8 +1,9 @@
 """The furnished room's acoustics: what the furniture adds to a shoebox.
 
-Every furniture part of a room variant (the room file's parts, nothing else) is an acoustic
-object: a box (a cylinder is taken as its bounding box's side and caps of its own area) whose
-exposed faces absorb with its material's octave-band ``absorption`` (materials/objects.toml).
+Every furniture part of a room variant (the room file's parts, nothing else; not its decor: a
+plant's leaves, a picture flat on a wall) is an acoustic object: a box (a cylinder is taken as
+its bounding box's side and caps of its own area) whose exposed faces absorb with its
+material's octave-band ``absorption`` (materials/objects.toml).
 A face that rests on the floor or stands against a wall is not exposed, and it hides the floor
 or wall behind it.
 
@@ -84,7 +85,7 @@ def furnishing(variant, materials: MaterialLibrary, samples: int = 8) -> Furnish
     covered, and the latter covers that much of the room face."""
     lx, ly, lz = variant.size_m
     L = np.array([lx, ly, lz])
-    rows = [(item, part) for item, part in variant.parts()]
+    rows = [(item, part) for item, part in variant.parts() if not part.decor]
     if not rows:
         return Furnishing.empty()
     center = np.array([p.box.center for _, p in rows], float)

@@ -64,10 +64,11 @@ def geom_box_corners(model: mujoco.MjModel, data: mujoco.MjData, g: int) -> np.n
 def _footprints(scene: Scene, data: mujoco.MjData, low: float, high: float,
                 keep) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """(hull equations, xy min, xy max) of every collision geom (and of the visual geoms of a
-    body that has none) in the band whose owner ``keep(owner)``."""
+    body that has none, and the room's decor: a plant's foliage) in the band whose owner
+    ``keep(owner)``."""
     m = scene.model
     solid = (m.geom_contype != 0) | (m.geom_conaffinity != 0)
-    with_twins = set(m.geom_bodyid[solid].tolist())
+    with_twins = set(m.geom_bodyid[solid].tolist()) - {0}  # the world body: furniture
     out = []
     for g in range(m.ngeom):
         owner = scene.geom_owner[g]

@@ -315,7 +315,8 @@ def _doors(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
     gap = np.minimum(1.0, np.maximum(gx[None, :], gy[:, None]))
     handle = np.zeros((px, px))
     hw, hl = 0.012, min(0.14, 0.5 * h)  # a bar handle's width and length
-    for k in range(n):
+    knobs = int(round(p["knobs"])) if drawer else 0
+    for k in range(n if not knobs else 0):
         x0, x1 = k * w / n, (k + 1) * w / n
         # a door's handle by the edge it opens from (pairs meet in the middle), near its top
         hx = x1 - 0.05 if (k % 2 == 0 and k + 1 < n) or n == 1 else x0 + 0.05
@@ -326,10 +327,85 @@ def _doors(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
             handle = np.maximum(handle,
                                 _cover(drawer / 2 - hw / 2, drawer / 2 + hw / 2, h, px)[:, None]
                                 * _cover(xm - hl / 2, xm + hl / 2, w, px)[None, :])
+    if knobs:  # an oven: one bar across the top of its door (or doors), knobs above
+        for k in range(n):
+            x0, x1 = k * w / n, (k + 1) * w / n
+            handle = np.maximum(handle, _cover(drawer + 0.04, drawer + 0.04 + 1.5 * hw, h,
+                                               px)[:, None]
+                                * _cover(x0 + 0.15 * (x1 - x0), x1 - 0.15 * (x1 - x0), w,
+                                         px)[None, :])
     handle = np.minimum(handle, 1.0)
     level = 0.012 * periodic_noise(rng, px, 1.0) - 0.45 * gap \
         - 0.5 * p["handle"] * handle * (1.0 - gap)
+    if knobs:
+        level = level + _knobs(knobs, w, h, drawer, px, rng)
     return _to_image(level.astype(np.float32))
+
+
+def _face_metres(w: float, h: float, px: int) -> tuple[np.ndarray, np.ndarray, float]:
+    """(x, y) of the pixel centres of an image stretched over a ``w`` x ``h`` m face, in
+    metres from its top left corner (x across, y down), and the larger pixel side."""
+    x = (np.arange(px) + 0.5) * w / px
+    y = (np.arange(px) + 0.5) * h / px
+    return x[None, :], y[:, None], max(w, h) / px
+
+
+def _disc(d: np.ndarray, r: float, pixel: float) -> np.ndarray:
+    """Coverage of a disc of radius ``r`` at distance ``d`` (m) from its centre, its edge
+    anti-aliased over a pixel."""
+    return np.clip((r - d) / pixel + 0.5, 0.0, 1.0)
+
+
+def _knobs(n: int, w: float, h: float, strip: float, px: int, rng: np.random.Generator
+           ) -> np.ndarray:
+    """A cooker's control strip (the top ``strip`` m of a ``w`` x ``h`` m front): ``n`` round
+    knobs in a row across it, dark, lit from above (a bright upper rim, a shadow under), each
+    with its pointer turned to its own setting."""
+    x, y, pixel = _face_metres(w, h, px)
+    r = min(0.022, 0.35 * strip, 0.4 * w / n)
+    out = np.zeros((px, px))
+    for k in range(n):
+        cx, cy = (k + 0.5) * w / n, strip / 2
+        dx, dy = x - cx, y - cy
+        d = np.hypot(dx, dy)
+        shadow = _disc(np.hypot(dx, dy - 0.3 * r), 1.1 * r, pixel)
+        body = _disc(d, r, pixel)
+        rim = body * (1.0 - _disc(d, 0.75 * r, pixel)) * np.clip(-dy / r, 0.0, 1.0)
+        turn = float(rng.uniform(-0.75, 0.75)) * math.pi  # from pointing straight up
+        along = dx * math.sin(turn) - dy * math.cos(turn)  # along the pointer
+        across = np.abs(dx * math.cos(turn) + dy * math.sin(turn))
+        pointer = _disc(d, 0.8 * r, pixel) * (along > 0.15 * r) \
+            * np.clip((0.12 * r - across) / pixel + 0.5, 0.0, 1.0)
+        out += -0.25 * shadow * (1.0 - body) - 0.55 * body + 0.35 * rim + 0.6 * pointer
+    return out
+
+
+def _hob(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
+    """A gas cooker's top, fitted to its face (``face_w_m`` x ``face_h_m``): four burners at
+    the face's quarter points, each a dark cap in a lighter crown inside a black cast-iron
+    grate of ``burner_m`` across (an outer ring and four bars), on the top's own finish."""
+    p = spec.param
+    w, h = p["face_w_m"], p["face_h_m"]
+    x, y, pixel = _face_metres(w, h, px)
+    big = 0.5 * min(p["burner_m"], 0.45 * min(w, h))  # a grate's radius
+    bar = max(0.01, pixel)
+    level = 0.01 * periodic_noise(rng, px, 1.0)
+    for cx in (w / 4, 3 * w / 4):
+        for cy in (h / 4, 3 * h / 4):
+            dx, dy = x - cx, y - cy
+            d = np.hypot(dx, dy)
+            crown = _disc(d, 0.42 * big, pixel) - _disc(d, 0.3 * big, pixel)
+            cap = _disc(d, 0.3 * big, pixel)
+            ring = _disc(d, big, pixel) - _disc(d, big - bar, pixel)
+            arms = np.maximum(np.clip((bar / 2 - np.abs(dx)) / pixel + 0.5, 0, 1),
+                              np.clip((bar / 2 - np.abs(dy)) / pixel + 0.5, 0, 1)) \
+                * (d > 0.45 * big) * _disc(d, big, pixel)
+            # the grate's shadow on the top, then the grate over everything
+            shade = _disc(d, big, pixel) * 0.12
+            grate = np.maximum(ring, arms)
+            level = level - shade - 0.3 * crown - 0.7 * cap
+            level = level * (1.0 - grate) - 0.75 * grate
+    return _to_image((level - level.mean()).astype(np.float32))
 
 
 def _cushions(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
@@ -352,12 +428,47 @@ def _cushions(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarra
     return _to_image((level - level.mean()).astype(np.float32))
 
 
+def _leaves(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
+    """Foliage: pointed leaves about ``leaf_m`` long (the image spans 6 of them) lying in
+    every direction, later ones over earlier ones, each in its own tone and lit on one side
+    of its midrib, over the deep shade between them; ``density`` sets how many overlap (at 1
+    the shade shows through about a tenth of the crown)."""
+    p = spec.param
+    n = int(round(350 * p["density"]))
+    scale = px / 6.0  # pixels per leaf length
+    level = np.full((px, px), -0.5, np.float32)  # the shade inside the crown
+    for _ in range(n):
+        cx, cy = rng.uniform(0, px, 2)
+        a = float(rng.uniform(0, math.pi))
+        half_l = 0.5 * scale * float(rng.uniform(0.7, 1.3))
+        half_w = half_l * float(rng.uniform(0.3, 0.5))
+        tone = float(rng.uniform(-0.1, 0.06))
+        side = float(rng.choice((-1.0, 1.0)))
+        # the pixels of the leaf's bounding square, wrapped (the image tiles)
+        r = int(math.ceil(half_l)) + 1
+        cols = np.arange(int(cx) - r, int(cx) + r + 1)
+        rows = np.arange(int(cy) - r, int(cy) + r + 1)
+        dx = (cols + 0.5 - cx)[None, :]
+        dy = (rows + 0.5 - cy)[:, None]
+        u = dx * math.cos(a) + dy * math.sin(a)  # along the leaf
+        v = -dx * math.sin(a) + dy * math.cos(a)
+        t = np.clip(u / half_l, -1.0, 1.0)
+        inside = (np.abs(u) < half_l) & (np.abs(v) < half_w * (1.0 - t * t))  # a lens
+        rib = np.clip(1.0 - np.abs(v) / 0.8, 0.0, 1.0) * (np.abs(t) < 0.9)
+        leaf = tone + 0.05 * side * np.sign(v) - 0.12 * rib
+        ix = np.ix_(rows % px, cols % px)
+        level[ix] = np.where(inside, leaf, level[ix])
+    level = level + 0.02 * periodic_noise(rng, px, 1.0)
+    # the leaves at the mean level, the shade below it (a brighter pattern would clip)
+    return _to_image(level.astype(np.float32))
+
+
 #: How each kind is drawn (its parameters: :data:`fallgen.world.appearance.KINDS`).
 DRAW: dict[str, Callable[[TextureSpec, int, np.random.Generator], np.ndarray]] = {
     "planks": _planks, "tiles": _tiles, "plaster": _plaster, "concrete": _concrete,
     "brick": _brick, "stone": _stone, "carpet": _carpet, "fabric": _fabric, "veneer": _veneer,
     "metal": _metal, "wallpaper": _wallpaper, "print": _print, "spines": _spines,
-    "window": _window, "doors": _doors,
+    "window": _window, "doors": _doors, "hob": _hob, "leaves": _leaves,
     "cushions": _cushions,
 }
 

@@ -23,11 +23,16 @@ drawn by :mod:`fallgen.vision.textures`. Kinds and parameters (metres unless sai
   surface's colour), different for every seed
 - ``spines``: spine_m (a book's mean thickness), variation (0..0.5: the spines' tones)
 - ``doors``: door_m (about how wide a door is), drawer_m (the drawer row's height, 0: none),
-  gap_m, handle (0..1: how dark the handles are), face_w_m, face_h_m (the face it is fitted
-  to: the fronts of a furniture type's parts, made per part by the scene)
+  gap_m, handle (0..1: how dark the handles are), knobs (0..8: a cooker's control knobs in
+  the drawer row instead of drawers), face_w_m, face_h_m (the face it is fitted to: the fronts
+  of a furniture type's parts, made per part by the scene)
+- ``hob``: burner_m (a burner's grate across); a cooker's top with four burners at the
+  quarter points of its face (face_w_m x face_h_m), fitted like ``doors``
 - ``cushions``: cushion_m (about how wide a cushion is), seam (0..1), puff (0..2: the
   shading of their rounded edges), face_w_m, face_h_m (fitted like ``doors``: a sofa's seat and
   back)
+- ``leaves``: leaf_m (a leaf's length), density (0.3..2: how many leaves overlap); a
+  plant's foliage, leaves in every direction over the shade inside the crown
 - ``window``: pane_m (a pane's side), frame_m (the bars' width); drawn opaque and lit from
   outside (daylight), where the flat view shows the glass as a transparent tint
 """
@@ -141,15 +146,21 @@ KINDS: dict[str, Params] = {
     "spines": Params({"spine_m": 0.03, "variation": 0.15},
                      {"spine_m": (0.005, 0.2), "variation": (0.0, 0.5)}, lambda p: 0.6),
     "doors": Params({"door_m": 0.5, "drawer_m": 0.15, "gap_m": 0.004, "handle": 1.0,
-                     "face_w_m": 1.0, "face_h_m": 0.8},
+                     "knobs": 0.0, "face_w_m": 1.0, "face_h_m": 0.8},
                     {"door_m": (0.1, 5.0), "drawer_m": (0.0, 2.0), "gap_m": (0.0, 0.02),
-                     "handle": (0.0, 1.0), "face_w_m": (0.05, 10.0), "face_h_m": (0.05, 10.0)},
+                     "handle": (0.0, 1.0), "knobs": (0.0, 8.0), "face_w_m": (0.05, 10.0),
+                     "face_h_m": (0.05, 10.0)},
                     lambda p: p["face_h_m"]),
+    "hob": Params({"burner_m": 0.17, "face_w_m": 0.6, "face_h_m": 0.6},
+                  {"burner_m": (0.05, 0.4), "face_w_m": (0.1, 3.0), "face_h_m": (0.1, 3.0)},
+                  lambda p: p["face_h_m"]),
     "cushions": Params({"cushion_m": 0.6, "seam": 1.0, "puff": 1.0, "face_w_m": 1.8,
                         "face_h_m": 0.6},
                        {"cushion_m": (0.1, 3.0), "seam": (0.0, 1.0), "puff": (0.0, 2.0),
                         "face_w_m": (0.05, 10.0), "face_h_m": (0.05, 10.0)},
                        lambda p: p["face_h_m"]),
+    "leaves": Params({"leaf_m": 0.07, "density": 1.0},
+                     {"leaf_m": (0.01, 0.5), "density": (0.3, 2.0)}, lambda p: 6 * p["leaf_m"]),
     "window": Params({"pane_m": 0.6, "frame_m": 0.06},
                      {"pane_m": (0.2, 2.0), "frame_m": (0.02, 0.2)}, lambda p: 2 * p["pane_m"]),
 }

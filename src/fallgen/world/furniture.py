@@ -12,6 +12,7 @@ depth with the *front* facing -y (the back, +y, goes against a wall), z up.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -54,7 +55,13 @@ class Part:
     """One rigid primitive of a furniture item.
 
     ``box`` is the part itself for ``shape == "box"``; for ``"cylinder"`` it is the bounding box
-    of a vertical cylinder of radius ``box.half[0]``.
+    of a vertical cylinder of radius ``box.half[0]``; for ``"ellipsoid"`` that of the ellipsoid
+    with semi-axes ``box.half``.
+
+    A ``decor`` part (a plant's foliage, a picture on a wall) is drawn and seen, and the robot
+    cannot drive through it, but it is not simulated or heard: nothing collides with it and
+    the room's acoustics leave it out (what it would change there is negligible, or not rigid:
+    leaves give way).
     """
 
     name: str
@@ -63,6 +70,7 @@ class Part:
     material: str  # object material reference: what a hit on this part sounds like
     rgba: RGBA | None = None
     role: str = ""  # the part's role in its furniture type ("top", "legs", "body", ...)
+    decor: bool = False
 
 
 @dataclass(frozen=True)
@@ -112,6 +120,11 @@ def _box(name: str, lo: tuple[float, float, float], hi: tuple[float, float, floa
 
 def _cyl(name: str, x: float, y: float, r: float, z0: float, z1: float, material: str) -> Part:
     return Part(name, "cylinder", Box((x, y, (z0 + z1) / 2), (r, r, (z1 - z0) / 2)), material)
+
+
+def _ellipsoid(name: str, center: tuple[float, float, float], half: tuple[float, float, float],
+               material: str) -> Part:
+    return Part(name, "ellipsoid", Box(center, half), material, decor=True)
 
 
 def _volume(x0: float, x1: float, y0: float, y1: float, z0: float, z1: float) -> Box:
@@ -367,7 +380,34 @@ def _picture(w, d, h, p: Fields) -> FurnitureGeometry:
         _box("frame_l", (-w / 2, -d / 2, b), (-w / 2 + b, d / 2, h - b), "frame"),
         _box("frame_r", (w / 2 - b, -d / 2, b), (w / 2, d / 2, h - b), "frame"),
     )
-    return FurnitureGeometry(parts, {})
+    # flat on the wall: it changes neither a fall nor the room's sound
+    return FurnitureGeometry(tuple(dataclasses.replace(q, decor=True) for q in parts), {})
+
+
+def _plant(w, d, h, p: Fields) -> FurnitureGeometry:
+    """A potted house plant: a pot (``pot_diameter_m`` across, ``pot_height_m`` high) under
+    a crown of foliage filling the rest of the ``w`` x ``d`` x ``h`` size: a central tuft and
+    ``lobes`` lower tufts around it (ellipsoids). The pot is solid; the foliage is decor."""
+    pot_h = p.float("pot_height_m", 0.3, lo=0.1, hi=1.0)
+    pot_d = p.float("pot_diameter_m", 0.3, lo=0.1, hi=0.8)
+    lobes = p.int("lobes", 5, lo=0, hi=8)
+    if pot_d > min(w, d) + 1e-9:
+        raise p.error("pot_diameter_m", f"{pot_d:g} m is wider than the plant ({min(w, d):g} m)")
+    if pot_h > h - 0.15:
+        raise p.error("pot_height_m", f"{pot_h:g} m leaves under 0.15 m of foliage (the plant "
+                      f"is {h:g} m high)")
+    z0 = pot_h - 0.03  # the foliage springs from inside the pot's rim
+    crown = h - z0
+    parts = [_cyl("pot", 0.0, 0.0, pot_d / 2, 0.0, pot_h, "pot"),
+             _ellipsoid("leaves0", (0.0, 0.0, z0 + 0.55 * crown),
+                        (0.32 * w, 0.32 * d, 0.45 * crown), "leaves")]
+    for k in range(lobes):
+        a = 2 * math.pi * k / lobes + 0.4
+        parts.append(_ellipsoid(f"leaves{k + 1}",
+                                (0.25 * w * math.cos(a), 0.25 * d * math.sin(a),
+                                 z0 + (0.3 + 0.1 * (k % 3)) * crown),
+                                (0.22 * w, 0.22 * d, 0.28 * crown), "leaves"))
+    return FurnitureGeometry(tuple(parts), {})
 
 
 # --- containers ---------------------------------------------------------------------------------
@@ -402,6 +442,11 @@ def _doors(door_m: float, drawer_m: float) -> dict[str, tuple[str, str, dict[str
     return {"body": ("doors", "front", {"door_m": door_m, "drawer_m": drawer_m})}
 
 
+#: A cooker's front (an oven door under a strip of four control knobs) and its top (four
+#: burners in their grates, where the pans stand).
+_COOKER = {"body": ("doors", "front", {"door_m": 2.0, "drawer_m": 0.12, "knobs": 4.0}),
+           "top": ("hob", "top", {"burner_m": 0.2})}
+
 #: A sofa's or armchair's seat and back cushions, about 0.6 m wide each.
 _CUSHIONS = {"base": ("cushions", "top", {"cushion_m": 0.6}),
              "back": ("cushions", "front", {"cushion_m": 0.6})}
@@ -429,8 +474,8 @@ FURNITURE: dict[str, FurnitureType] = {
                       fronts=_doors(2.0, 0.5)),
         FurnitureType("stove", "cooker with pans on its burners (params: pans, pan_diameter_m)",
                       {"body": "metal", "top": "metal", "pans": "metal"},
-                      {"body": _STEEL, "top": _DARK, "pans": (0.25, 0.25, 0.27, 1.0)}, _stove,
-                      fronts=_doors(2.0, 0.12)),
+                      {"body": _STEEL, "top": _STEEL, "pans": (0.25, 0.25, 0.27, 1.0)}, _stove,
+                      fronts=_COOKER),
         FurnitureType("dining_table", "table on four legs", {"top": "wood_hard", "legs": "wood_hard"},
                       {"top": _WOOD, "legs": _WOOD}, _table),
         FurnitureType("coffee_table", "low table on four legs",
@@ -470,6 +515,10 @@ FURNITURE: dict[str, FurnitureType] = {
                       "params: frame_m)", {"canvas": "paper/print", "frame": "wood_hard"},
                       {"canvas": (0.9, 0.9, 0.9, 1.0), "frame": (0.22, 0.16, 0.12, 1.0)},
                       _picture, has_behind=False, wall_hung=True),
+        FurnitureType("plant", "potted house plant, foliage over a pot (params: pot_height_m, "
+                      "pot_diameter_m, lobes)", {"pot": "ceramic", "leaves": "wood_soft/foliage"},
+                      {"pot": (0.62, 0.34, 0.24, 1.0), "leaves": (0.28, 0.48, 0.2, 1.0)},
+                      _plant, has_behind=False),
     )
 }
 

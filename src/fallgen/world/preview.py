@@ -66,6 +66,12 @@ def draw_variant(v: RoomVariant, px_per_m: float = 110.0, overlay=None) -> np.nd
             r = int(round(part.box.half[0] * px_per_m))
             cv2.circle(img, tuple(c), r, color, -1, cv2.LINE_AA)
             cv2.circle(img, tuple(c), r, (50, 50, 50), 1, cv2.LINE_AA)
+        elif part.shape == "ellipsoid":
+            c = tuple(int(v) for v in px(np.array(part.box.center[:2]))[0])
+            axes = tuple(int(round(part.box.half[k] * px_per_m)) for k in (0, 1))
+            angle = -float(np.degrees(part.box.yaw))  # image rows run south
+            cv2.ellipse(img, c, axes, angle, 0, 360, color, -1, cv2.LINE_AA)
+            cv2.ellipse(img, c, axes, angle, 0, 360, (50, 50, 50), 1, cv2.LINE_AA)
         else:
             poly = px(part.box.corners2d())
             cv2.fillPoly(img, [poly], color, cv2.LINE_AA)

@@ -236,7 +236,8 @@ def _furniture(f: Fields, size_room, mats: MaterialLibrary) -> FurnitureItem:
     x, y, z, yaw = pose
     parts = tuple(
         Part(p.name, p.shape, p.box.placed((x, y), yaw, z), roles[p.material],
-             rgba if rgba is not None else spec.colors[p.material], role=p.material)
+             rgba if rgba is not None else spec.colors[p.material], role=p.material,
+             decor=p.decor)
         for p in geom.parts
     )
     anchors = {k: Anchor(a.kind, a.volume.placed((x, y), yaw, z), a.support)

@@ -455,6 +455,9 @@ def _build_room_spec(variant: RoomVariant, mats: MaterialLibrary, settings: Phys
         if part.shape == "cylinder":
             g.type = mujoco.mjtGeom.mjGEOM_CYLINDER
             g.size = [b.half[0], b.half[2], 0.0]
+        elif part.shape == "ellipsoid":
+            g.type = mujoco.mjtGeom.mjGEOM_ELLIPSOID
+            g.size = list(b.half)
         else:
             g.type = mujoco.mjtGeom.mjGEOM_BOX
             g.size = list(b.half)
@@ -479,6 +482,10 @@ def _build_room_spec(variant: RoomVariant, mats: MaterialLibrary, settings: Phys
             if look is not None:
                 texture = look.texture(texture)
             _look(spec, g, texture, g.rgba, repeat=(1.0 / fw, 1.0 / fh))
+        elif settings.appearance and texture is not None and part.shape == "ellipsoid":
+            # a curved part shows its texture as an object does: a cube map (a flat texture
+            # is projected along the geom's z and smears down its sides)
+            _object_look(spec, g, mats.object(part.material), g.rgba, look)
         elif settings.appearance and texture is not None:
             if part.shape == "box":  # its largest faces as the box's +-z (see _face_frame);
                 # books show their spines: their front, whatever their proportions
@@ -491,6 +498,8 @@ def _build_room_spec(variant: RoomVariant, mats: MaterialLibrary, settings: Phys
                 texture = look.texture(texture)
             _look(spec, g, texture, g.rgba)
         _set_contact(g, mats, part.material)
+        if part.decor:  # drawn, in the robot's way, never touched by a falling object
+            g.contype = g.conaffinity = 0
         info[g.name] = (item.id, part.material)
     return spec, info
 
