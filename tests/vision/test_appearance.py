@@ -319,3 +319,59 @@ def test_a_cooker_shows_its_knobs_and_burners():
         for cy in (0.25, 0.75):
             assert top[int(cy * px), int(cx * px)] < mean - 60  # a cap
     assert top[px // 2, px // 2] > mean  # the top's own finish between them
+
+
+def test_an_objects_texture_sits_at_its_size_in_metres():
+    """An object's mesh gets texture coordinates by box projection (scene.box_texcoords) and
+    its material's texture at real size: 25 cm tiles on a mesh's side show a grout line every
+    25 cm (75 of 300 pixels of a 1 m orthographic view), whatever the mesh's size; every
+    triangle corner is mapped on the plane its triangle faces."""
+    import types
+
+    import cv2
+    import trimesh
+
+    from fallgen.world.appearance import TextureSpec
+    from fallgen.world.scene import _object_look, box_texcoords
+
+    tiles = TextureSpec.make("tiles", 1.0, tile_m=0.25, grout_m=0.01, grout=0.3, variation=0.0)
+    mesh = trimesh.creation.box((0.9, 0.3, 0.9))
+    uv, corners = box_texcoords(mesh.vertices, mesh.faces, tiles.size_m)
+    assert uv.shape == (3 * len(mesh.faces), 2) and corners.shape == mesh.faces.shape
+    side = np.flatnonzero(mesh.face_normals[:, 1] < -0.9)  # the -y face: its x and z
+    np.testing.assert_allclose(uv[corners[side]].reshape(-1, 2),
+                               mesh.vertices[mesh.faces[side]].reshape(-1, 3)[:, [0, 2]])
+
+    spec = mujoco.MjSpec()
+    spec.visual.headlight.ambient = [1.0, 1.0, 1.0]
+    spec.visual.headlight.diffuse = [0.0, 0.0, 0.0]
+    m = spec.add_mesh()
+    m.name = "thing"
+    m.uservert = mesh.vertices.ravel().tolist()
+    m.userface = mesh.faces.ravel().tolist()
+    m.usertexcoord = uv.ravel().tolist()
+    m.userfacetexcoord = corners.ravel().tolist()
+    g = spec.worldbody.add_geom()
+    g.type, g.meshname = mujoco.mjtGeom.mjGEOM_MESH, "thing"
+    material = types.SimpleNamespace(name="tiled", audio="ceramic", texture=tiles)
+    _object_look(spec, g, material, [0.9, 0.9, 0.9, 1.0], None, mapped=True)
+    cam = spec.worldbody.add_camera()
+    cam.name, cam.pos, cam.fovy = "side", [0.0, -2.0, 0.0], 1.0
+    cam.proj = mujoco.mjtProjection.mjPROJ_ORTHOGRAPHIC
+    q = np.zeros(4)
+    mujoco.mju_mat2Quat(q, np.column_stack([[1, 0, 0], [0, 0, 1], [0, -1, 0]]).ravel()
+                        .astype(float))
+    cam.quat = q
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    with mujoco.Renderer(model, 300, 300) as r:
+        r.update_scene(data, "side")
+        grey = cv2.cvtColor(r.render(), cv2.COLOR_RGB2GRAY).astype(float)
+    cols = grey[30:270, 30:270].mean(axis=0)
+    dark = np.flatnonzero(cols < cols.mean() - 0.5 * cols.std())
+    runs = np.split(dark, np.flatnonzero(np.diff(dark) > 1) + 1)
+    centres = np.array([r.mean() for r in runs if len(r)])
+    spacing = np.diff(centres)
+    assert len(spacing) >= 2, centres
+    assert np.all(np.abs(spacing - 75.0) <= 1.5), centres

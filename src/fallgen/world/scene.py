@@ -261,31 +261,66 @@ GLOSS: dict[str, tuple[float, float]] = {
 }
 
 
-def _object_look(spec: mujoco.MjSpec, g, material, rgba, look: LookDraw | None) -> None:
+def box_texcoords(vertices: np.ndarray, faces: np.ndarray, size_m: float
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Texture coordinates of a mesh without any, at real size: each triangle takes the
+    coordinates of its corners on the plane its normal is most nearly along (a box
+    projection: the texture on every face as on a box's, one image every ``size_m`` metres).
+    Returns (3F, 2) coordinates and their (F, 3) index per triangle corner (MuJoCo's
+    ``usertexcoord`` and ``userfacetexcoord``: a corner shared by triangles projected on
+    different planes gets a coordinate per triangle)."""
+    v = np.asarray(vertices, float)
+    f = np.asarray(faces, np.int64)
+    tri = v[f]  # (F, 3, 3)
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    axis = np.argmax(np.abs(normal), axis=1)
+    # the plane's two other axes, in order (x: y, z; y: x, z; z: x, y)
+    first = np.where(axis == 0, 1, 0)
+    second = np.where(axis == 2, 1, 2)
+    rows = np.arange(len(f))[:, None]
+    uv = np.stack([tri[rows, np.arange(3)[None, :], first[:, None]],
+                   tri[rows, np.arange(3)[None, :], second[:, None]]], axis=-1) / size_m
+    return uv.reshape(-1, 2), np.arange(3 * len(f)).reshape(-1, 3)
+
+
+def _object_look(spec: mujoco.MjSpec, g, material, rgba, look: LookDraw | None,
+                 mapped: bool = False) -> None:
     """Draw an object's visual mesh as its material looks: glossy or matte by its audio
-    material, and with the material's texture where it has one (a cube texture: MuJoCo projects
-    it onto a mesh without texture coordinates, at its size, as it does a box's faces)."""
+    material, and with the material's texture where it has one: on a mesh with texture
+    coordinates at real size (``mapped``: :func:`box_texcoords`) as a flat texture, else (a
+    plant's foliage, an ellipsoid) as a cube texture, which MuJoCo projects from the geom's
+    centre by direction (its grain then scales with the geom, not with metres)."""
     from fallgen.vision.textures import texture_bytes
 
     texture = material.texture
     if texture is not None and look is not None:
         texture = look.texture(texture)
     name = f"obj_{material.name}" + (f"_{texture.key()}" if texture is not None else "") \
+        + ("_uv" if mapped and texture is not None else "") \
         + "_" + "_".join(f"{c:.3f}" for c in rgba)
     if spec.material(name) is None:
         m = spec.add_material(name=name)
         m.specular, m.shininess = GLOSS.get(material.audio, (0.3, 0.3))
         m.rgba = list(rgba)
         if texture is not None:
-            tex_name = f"cube_{texture.key()}"
+            kind = "tex2d" if mapped else "cube"
+            tex_name = f"{kind}_{texture.key()}_{OBJECT_TEXTURE_PX}"
             if spec.texture(tex_name) is None:
-                t = spec.add_texture(name=tex_name, type=mujoco.mjtTexture.mjTEXTURE_CUBE)
+                t = spec.add_texture(name=tex_name, type=mujoco.mjtTexture.mjTEXTURE_2D
+                                     if mapped else mujoco.mjtTexture.mjTEXTURE_CUBE)
                 # 64 px: an object a few metres away covers a few dozen pixels of a view
                 w, h, n, data = texture_bytes(texture, OBJECT_TEXTURE_PX)
-                t.width, t.height, t.nchannel, t.data = w, 6 * h, n, data * 6  # every face
+                if mapped:
+                    t.width, t.height, t.nchannel, t.data = w, h, n, data
+                else:
+                    t.width, t.height, t.nchannel, t.data = w, 6 * h, n, data * 6  # every face
             m.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = tex_name
-            m.texuniform = True
-            m.texrepeat = [2.0 / texture.size_m, 2.0 / texture.size_m]
+            if mapped:  # the coordinates are in texture images already
+                m.texuniform = False
+                m.texrepeat = [1.0, 1.0]
+            else:
+                m.texuniform = True
+                m.texrepeat = [2.0 / texture.size_m, 2.0 / texture.size_m]
             m.rgba = [*_untinted(rgba), rgba[3]]
     g.material = name
     g.rgba = list(spec.material(name).rgba)  # the geom's colour would override the material's
@@ -530,6 +565,12 @@ def _add_object(spec: mujoco.MjSpec, mats: MaterialLibrary, obj: PlacedObject,
         vis.uservert = (geo.vertices * s).ravel().tolist()
         vis.userface = geo.faces.ravel().tolist()
         vis.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
+        texture = inst.material.texture
+        mapped = settings.appearance and texture is not None
+        if mapped:  # the material's texture at its real size on the object
+            uv, corners = box_texcoords(geo.vertices * s, geo.faces, texture.size_m)
+            vis.usertexcoord = uv.ravel().tolist()
+            vis.userfacetexcoord = corners.ravel().tolist()
         g = body.add_geom()
         g.name = f"{prefix}/visual"
         g.type = mujoco.mjtGeom.mjGEOM_MESH
@@ -540,7 +581,7 @@ def _add_object(spec: mujoco.MjSpec, mats: MaterialLibrary, obj: PlacedObject,
         if settings.appearance:
             if look is not None:
                 g.rgba = look.colour(("object", obj.name), g.rgba)
-            _object_look(spec, g, inst.material, g.rgba, look)
+            _object_look(spec, g, inst.material, g.rgba, look, mapped=mapped)
         info[g.name] = (prefix, inst.material.name)
     for k, piece in enumerate(geo.collision if settings.collision_meshes else ()):
         m = spec.add_mesh()
