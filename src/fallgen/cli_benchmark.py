@@ -268,3 +268,105 @@ def register(app: typer.Typer, console: Console) -> None:
                 raise InputError(dataset, "expert_actions" if "expert" in str(e) else
                                  "--format", str(e)) from None
         console.print(f"{len(ids)} expert trajectories -> {path}")
+
+    audio_app = typer.Typer(help="The auditory perception module (issue 30): train it on a "
+                            "build's train split, score it on another.", no_args_is_help=True)
+    app.add_typer(audio_app, name="audio-model")
+
+    def _rows(ds, split: str, room_kind: Optional[str], option: str = "--split") -> list[dict]:
+        if split not in ds.splits:
+            raise InputError("<command line>", option, f"{split!r}: the dataset has "
+                             f"{', '.join(ds.splits) or 'no split'}")
+        rows = ds.rows(split, room_kind)
+        if not rows:
+            raise InputError("<command line>", "--room-kind", f"no {room_kind} episode in "
+                             f"the {split} split")
+        return rows
+
+    def _bar(label: str):
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, \
+            TimeElapsedColumn
+
+        return Progress(TextColumn(label), BarColumn(), MofNCompleteColumn(),
+                        TimeElapsedColumn(), console=console)
+
+    @audio_app.command("train")
+    def audio_train(
+        dataset: Annotated[Path, typer.Argument(help="A dataset directory.")],
+        out: Annotated[Path, typer.Option("--out", "-o", help="The model file to write.")],
+        split: Annotated[str, typer.Option(help="The split it learns from.")] = "train",
+        room_kind: Annotated[Optional[str], typer.Option(
+            help="kitchen or study only (cross-scene: train on one, score on the other).")
+        ] = None,
+        seed: Annotated[int, typer.Option(help="The trees' seed.")] = 0,
+        trees: Annotated[int, typer.Option(help="Trees per model.", min=1)] = 300,
+    ) -> None:
+        """Learn the category, the audio material and where the fall was from the step-0
+        clips of a split; save the model with its feature settings."""
+        from fallgen.perception.audio_model import AudioModel
+
+        ds = _open(dataset)
+        rows = _rows(ds, split, room_kind)
+        with _bar("features") as bar:
+            task = bar.add_task("", total=len(rows))
+            model = AudioModel.train(ds, rows, seed=seed, trees=trees,
+                                     progress=lambda n: bar.update(task, advance=n))
+        model.meta.update({"split": split, "room_kind": room_kind, "dataset": str(dataset)})
+        model.save(out)
+        console.print(f"audio model on {len(rows)} {split} episodes "
+                      f"({model.features.sample_rate} Hz, {model.features.clip_samples} "
+                      f"samples, {len(model.features.names)} features; position error "
+                      f"{model.position_error_m:.2f} m out of bag) -> {out}")
+
+    @audio_app.command("eval")
+    def audio_eval(
+        dataset: Annotated[Path, typer.Argument(help="A dataset directory.")],
+        model_path: Annotated[Path, typer.Option("--model", "-m", help="A model file "
+                                                 "(fallgen audio-model train).")],
+        out: Annotated[Path, typer.Option("--out", "-o", help="Directory for scores.json and "
+                                          "the confusion matrices' PNGs.")],
+        split: Annotated[str, typer.Option(help="The split it is scored on.")] = "test",
+        room_kind: Annotated[Optional[str], typer.Option(help="kitchen or study only.")
+                             ] = None,
+        train_split: Annotated[str, typer.Option(
+            help="The split the no-audio prior's frequencies come from.")] = "train",
+    ) -> None:
+        """Score a model on a split: category top-1 / top-5, material accuracy, median
+        azimuth error, distance rank correlation, against chance and a prior that does not
+        listen; by zone kind and distance; confusion matrices as PNGs."""
+        import json
+
+        from fallgen.atomic import write_bytes
+        from fallgen.perception.audio_model import AudioModel, check_features, confusion_png, \
+            evaluate
+        from fallgen.world.library import load_world
+
+        ds = _open(dataset)
+        model = AudioModel.load(model_path)
+        rows = _rows(ds, split, room_kind)
+        check_features(ds, rows, model.features, model_path)
+        train_rows = _rows(ds, train_split, None, "--train-split")
+        with _bar("features") as bar:
+            task = bar.add_task("", total=len(rows))
+            scores, confusion = evaluate(model, ds, rows, train_rows, load_world(),
+                                         progress=lambda n: bar.update(task, advance=n))
+        scores.update({"split": split, "room_kind": room_kind, "model": str(model_path),
+                       "trained_on": model.meta, "trained_manifest_sha256":
+                       model.manifest_sha256})
+        out.mkdir(parents=True, exist_ok=True)
+        write_bytes(out / "scores.json", (json.dumps(scores, indent=1) + "\n").encode())
+        for name, (matrix, labels) in confusion.items():
+            confusion_png(matrix, labels, name, out / f"confusion_{name}.png")
+        table = Table(title=f"audio model on {len(rows)} {split} episodes")
+        for col in ("", "model", "prior (no audio)", "chance"):
+            table.add_column(col)
+        for key, fmt in (("category_top1", "{:.3f}"), ("category_top5", "{:.3f}"),
+                         ("material_top1", "{:.3f}"), ("azimuth_median_error_deg", "{:.1f}"),
+                         ("lateral_median_error_deg", "{:.1f}"),
+                         ("distance_rank_correlation", "{:.3f}")):
+            cells = [scores.get(key), scores["prior"].get(key), scores["chance"].get(key)]
+            table.add_row(key, *("" if v is None else fmt.format(v) for v in cells))
+        console.print(table)
+        console.print(f"position median error {scores['position_median_error_m']:.2f} m; "
+                      f"-> {out / 'scores.json'}, confusion_category.png, "
+                      "confusion_material.png")

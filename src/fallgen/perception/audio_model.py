@@ -1,0 +1,347 @@
+"""The auditory perception module (issue 30): from the step-0 binaural clip, the fallen object's
+category, its audio material and where the fall was (azimuth and distance from the agent).
+
+Trained on a build's train split, scored on another split (``fallgen audio-model train`` /
+``eval``). The features are :class:`~fallgen.perception.audio_features.AudioFeatures`; the
+models scikit-learn's extremely randomised trees (Geurts, Ernst & Wehenkel 2006): a classifier
+each for the category and the material on every feature, a regressor for (cos azimuth, sin
+azimuth, log distance) together on the spatial ones (``AudioFeatures.spatial``). Seeded, and deterministic for a seed on a given machine and library
+version (trees are grown on one thread).
+
+The model file (pickle through joblib: load only files you trust) holds the feature settings,
+the label tables and the train split's manifest hash; a dataset whose clips differ from the
+features' (sample rate, length) is refused with a one-line error. Scored against a prior that
+does not listen: the train split's most frequent categories and material, and the room's
+centre as where the fall was.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from collections import Counter, defaultdict
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from fallgen.errors import InputError
+from fallgen.perception.audio_features import AudioFeatures, relative_place
+
+FORMAT = "fallgen-audio-model/1"
+#: Distance bins (m) the scores are broken down by.
+DISTANCE_BINS_M = (0.0, 2.5, 3.5, 4.5, 100.0)
+
+
+def _manifest_sha256(root: Path) -> str:
+    path = Path(root) / "manifest.json"
+    return hashlib.sha256(path.read_bytes()).hexdigest() if path.is_file() else ""
+
+
+def dataset_features(ds, rows: Sequence[dict]) -> AudioFeatures:
+    """The feature settings for ``ds``'s clips (sample rate and length from its first row and
+    clip)."""
+    if not rows:
+        raise ValueError("no episodes")
+    shape = ds.arrays(rows[0], ("audio",))["audio"].shape
+    return AudioFeatures(sample_rate=int(rows[0]["sample_rate"]), clip_samples=int(shape[-1]))
+
+
+def check_features(ds, rows: Sequence[dict], features: AudioFeatures, model_path) -> None:
+    """A one-line error (:class:`InputError`, naming the model file and the field) when
+    ``ds``'s clips are not what ``features`` were made for."""
+    have = dataset_features(ds, rows)
+    for name in ("sample_rate", "clip_samples"):
+        if getattr(have, name) != getattr(features, name):
+            raise InputError(model_path, f"features.{name}",
+                             f"the model was trained on clips of {features.sample_rate} Hz, "
+                             f"{features.clip_samples} samples; {ds.root} has "
+                             f"{have.sample_rate} Hz, {have.clip_samples} samples")
+
+
+def feature_matrix(ds, rows: Sequence[dict], features: AudioFeatures,
+                   progress: Callable[[int], None] | None = None) -> np.ndarray:
+    """(N, F) features of the rows' clips, read shard file by shard file."""
+    out = np.empty((len(rows), len(features.names)), np.float32)
+    by_file: dict[str, list[int]] = defaultdict(list)
+    for i, r in enumerate(rows):
+        by_file[r["media_file"]].append(i)
+    for name, idx in sorted(by_file.items()):
+        path = Path(ds.root) / name
+        if not path.is_file():
+            raise InputError(path, "audio", "missing media file")
+        with h5py.File(path, "r") as f:
+            audio = f["audio"]
+            for i in idx:
+                out[i] = features.extract(audio[rows[i]["media_index"]])
+                if progress is not None:
+                    progress(1)
+    return out
+
+
+def place_targets(rows: Sequence[dict]) -> np.ndarray:
+    """(N, 2): azimuth (rad) and distance (m) of each fall from its agent."""
+    return np.array([relative_place(r) for r in rows], float)
+
+
+@dataclass(frozen=True)
+class AudioPrediction:
+    categories: tuple[str, ...]  # the model's category table
+    category_p: np.ndarray  # (C,) probabilities
+    materials: tuple[str, ...]
+    material_p: np.ndarray
+    azimuth_rad: float  # counter-clockwise from the agent's heading
+    distance_m: float
+
+    @property
+    def category(self) -> str:
+        return self.categories[int(np.argmax(self.category_p))]
+
+    @property
+    def material(self) -> str:
+        return self.materials[int(np.argmax(self.material_p))]
+
+    @property
+    def position(self) -> np.ndarray:
+        """Where the fall was, in the agent's frame (x forward, y left), m."""
+        return self.distance_m * np.array([math.cos(self.azimuth_rad),
+                                           math.sin(self.azimuth_rad)])
+
+
+@dataclass
+class AudioModel:
+    features: AudioFeatures
+    category_model: object
+    material_model: object
+    place_model: object
+    manifest_sha256: str = ""
+    n_train: int = 0
+    #: median error (m) of the position on the training set's out-of-bag predictions: the
+    #: uncertainty a planner searches around the estimate
+    position_error_m: float = 1.0
+    meta: dict = field(default_factory=dict)
+
+    # -- training and prediction ----------------------------------------------------------
+    @staticmethod
+    def train(ds, rows: Sequence[dict], seed: int = 0, trees: int = 300,
+              progress: Callable[[int], None] | None = None) -> AudioModel:
+        from sklearn.ensemble import ExtraTreesClassifier, ExtraTreesRegressor
+
+        if len(rows) < 2:
+            raise ValueError(f"{len(rows)} training episode(s): need at least 2")
+        features = dataset_features(ds, rows)
+        X = feature_matrix(ds, rows, features, progress)
+        place = place_targets(rows)
+        Y = np.column_stack([np.cos(place[:, 0]), np.sin(place[:, 0]), np.log(place[:, 1])])
+        common = dict(n_estimators=trees, random_state=seed, n_jobs=1, min_samples_leaf=1,
+                      max_features="sqrt")
+        cat = ExtraTreesClassifier(**common).fit(X, [r["category"] for r in rows])
+        mat = ExtraTreesClassifier(**common).fit(X, [r["audio_material"] for r in rows])
+        reg = ExtraTreesRegressor(**{**common, "max_features": 0.5, "bootstrap": len(rows) > 2,
+                                     "oob_score": len(rows) > 2})
+        reg.fit(X[:, features.spatial], Y)
+        err = 1.0
+        if len(rows) > 2 and hasattr(reg, "oob_prediction_"):
+            oob = reg.oob_prediction_
+            ok = np.isfinite(oob).all(axis=1)
+            if ok.any():
+                est = _positions(oob[ok])
+                true = _positions(Y[ok])
+                err = float(np.median(np.linalg.norm(est - true, axis=1)))
+        return AudioModel(features, cat, mat, reg, _manifest_sha256(ds.root), len(rows), err,
+                          {"seed": seed, "trees": trees})
+
+    def predict_matrix(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(category probabilities (N, C), material probabilities (N, M), places (N, 2):
+        azimuth rad, distance m)."""
+        Y = self.place_model.predict(X[:, self.features.spatial])
+        az = np.arctan2(Y[:, 1], Y[:, 0])
+        return (self.category_model.predict_proba(X), self.material_model.predict_proba(X),
+                np.column_stack([az, np.exp(Y[:, 2])]))
+
+    def predict(self, audio: np.ndarray) -> AudioPrediction:
+        cp, mp, place = self.predict_matrix(self.features.extract(audio)[None, :])
+        return AudioPrediction(tuple(self.category_model.classes_), cp[0],
+                               tuple(self.material_model.classes_), mp[0],
+                               float(place[0, 0]), float(place[0, 1]))
+
+    # -- files ----------------------------------------------------------------------------
+    def save(self, path: Path) -> None:
+        import io
+
+        import joblib
+
+        from fallgen.atomic import write_bytes
+
+        buf = io.BytesIO()
+        joblib.dump({"format": FORMAT, "features": self.features.to_dict(),
+                     "category_model": self.category_model,
+                     "material_model": self.material_model, "place_model": self.place_model,
+                     "manifest_sha256": self.manifest_sha256, "n_train": self.n_train,
+                     "position_error_m": self.position_error_m, "meta": self.meta}, buf)
+        write_bytes(Path(path), buf.getvalue())
+
+    @staticmethod
+    def load(path: Path) -> AudioModel:
+        import joblib
+
+        path = Path(path)
+        if not path.is_file():
+            raise InputError(path, "<file>", "no such model file")
+        try:
+            d = joblib.load(path)
+        except Exception as e:  # a truncated or foreign file
+            raise InputError(path, "<file>", f"not a fallgen audio model ({e})") from None
+        if not isinstance(d, dict) or d.get("format") != FORMAT:
+            raise InputError(path, "format", f"not a {FORMAT} file")
+        try:
+            features = AudioFeatures.from_dict(d["features"])
+        except (KeyError, TypeError) as e:
+            raise InputError(path, "features", f"unreadable feature settings ({e})") from None
+        if features.version != AudioFeatures().version:
+            raise InputError(path, "features.version", f"made with feature version "
+                             f"{features.version}; this fallgen extracts version "
+                             f"{AudioFeatures().version}: train it again")
+        return AudioModel(features, d["category_model"], d["material_model"], d["place_model"],
+                          d.get("manifest_sha256", ""), int(d.get("n_train", 0)),
+                          float(d.get("position_error_m", 1.0)), dict(d.get("meta", {})))
+
+
+def _positions(Y: np.ndarray) -> np.ndarray:
+    az = np.arctan2(Y[:, 1], Y[:, 0])
+    d = np.exp(Y[:, 2])
+    return np.column_stack([d * np.cos(az), d * np.sin(az)])
+
+
+# -- scores ---------------------------------------------------------------------------------------
+
+def _angle_error_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.degrees(np.abs(np.arctan2(np.sin(a - b), np.cos(a - b))))
+
+
+def _topk(p: np.ndarray, classes: Sequence[str], truth: Sequence[str], k: int) -> float:
+    order = np.argsort(-p, axis=1)[:, :k]
+    names = np.asarray(classes)[order]
+    return float(np.mean([t in row for t, row in zip(truth, names)]))
+
+
+def _spearman(a: np.ndarray, b: np.ndarray) -> float:
+    from scipy.stats import spearmanr
+
+    if len(a) < 3 or np.ptp(a) == 0 or np.ptp(b) == 0:
+        return float("nan")
+    return float(spearmanr(a, b).statistic)
+
+
+def room_centre_prior(rows: Sequence[dict], world) -> np.ndarray:
+    """(N, 2) azimuth and distance of each room's centre from the agent: where a planner
+    without audio would guess the fall was."""
+    out = []
+    for r in rows:
+        lx, ly, _ = world.variant(r["room_variant"]).size_m
+        fake = dict(r, settle_pos=(lx / 2, ly / 2, 0.0))
+        out.append(relative_place(fake))
+    return np.array(out, float)
+
+
+def evaluate(model: AudioModel, ds, rows: Sequence[dict], train_rows: Sequence[dict],
+             world, progress: Callable[[int], None] | None = None
+             ) -> tuple[dict, dict[str, tuple[np.ndarray, tuple[str, ...]]]]:
+    """Scores of ``model`` on ``rows`` and of the no-audio prior (from ``train_rows``), by
+    zone kind and by distance too; and the confusion matrices (rows: truth) by name."""
+    X = feature_matrix(ds, rows, model.features, progress)
+    cp, mp, place = model.predict_matrix(X)
+    cats, mats = list(model.category_model.classes_), list(model.material_model.classes_)
+    truth_c = [r["category"] for r in rows]
+    truth_m = [r["audio_material"] for r in rows]
+    true_place = place_targets(rows)
+    az_err = _angle_error_deg(place[:, 0], true_place[:, 0])
+    # the lateral angle (front and back folded onto each other): what two ears tell apart
+    # without a pinna (the spherical head's cues are the same in front and behind)
+    lat_err = np.degrees(np.abs(np.arcsin(np.sin(place[:, 0]))
+                                - np.arcsin(np.sin(true_place[:, 0]))))
+    pos_err = np.linalg.norm(_positions(np.column_stack(
+        [np.cos(place[:, 0]), np.sin(place[:, 0]), np.log(place[:, 1])])) - _positions(
+        np.column_stack([np.cos(true_place[:, 0]), np.sin(true_place[:, 0]),
+                         np.log(true_place[:, 1])])), axis=1)
+    freq_c = [c for c, _ in Counter(r["category"] for r in train_rows).most_common()]
+    freq_m = [m for m, _ in Counter(r["audio_material"] for r in train_rows).most_common()]
+    prior = room_centre_prior(rows, world)
+    prior_az = _angle_error_deg(prior[:, 0], true_place[:, 0])
+    scores = {
+        "episodes": len(rows),
+        "category_top1": _topk(cp, cats, truth_c, 1),
+        "category_top5": _topk(cp, cats, truth_c, 5),
+        "material_top1": _topk(mp, mats, truth_m, 1),
+        "azimuth_median_error_deg": float(np.median(az_err)),
+        "lateral_median_error_deg": float(np.median(lat_err)),
+        "distance_rank_correlation": _spearman(place[:, 1], true_place[:, 1]),
+        "position_median_error_m": float(np.median(pos_err)),
+        "chance": {"category_top1": 1 / max(len(cats), 1), "category_top5":
+                   min(5, len(cats)) / max(len(cats), 1), "material_top1": 1 / max(len(mats), 1),
+                   "azimuth_median_error_deg": 90.0, "lateral_median_error_deg": 30.0},
+        "prior": {
+            "category_top1": float(np.mean([t in freq_c[:1] for t in truth_c])),
+            "category_top5": float(np.mean([t in freq_c[:5] for t in truth_c])),
+            "material_top1": float(np.mean([t in freq_m[:1] for t in truth_m])),
+            "azimuth_median_error_deg": float(np.median(prior_az)),
+            "lateral_median_error_deg": float(np.median(np.degrees(np.abs(
+                np.arcsin(np.sin(prior[:, 0])) - np.arcsin(np.sin(true_place[:, 0])))))),
+            "distance_rank_correlation": _spearman(prior[:, 1], true_place[:, 1]),
+        },
+    }
+    top1 = np.asarray(cats)[np.argmax(cp, axis=1)] == np.asarray(truth_c)
+    by_zone: dict[str, dict] = {}
+    for z in sorted({r["zone_kind"] for r in rows}):
+        k = np.array([r["zone_kind"] == z for r in rows])
+        by_zone[z] = {"episodes": int(k.sum()), "category_top1": float(top1[k].mean()),
+                      "azimuth_median_error_deg": float(np.median(az_err[k]))}
+    by_distance: dict[str, dict] = {}
+    for lo, hi in zip(DISTANCE_BINS_M[:-1], DISTANCE_BINS_M[1:]):
+        k = (true_place[:, 1] >= lo) & (true_place[:, 1] < hi)
+        if k.any():
+            by_distance[f"{lo:g}-{hi:g} m"] = {
+                "episodes": int(k.sum()), "category_top1": float(top1[k].mean()),
+                "azimuth_median_error_deg": float(np.median(az_err[k]))}
+    scores["by_zone_kind"] = by_zone
+    scores["by_distance"] = by_distance
+    confusion = {"category": _confusion(truth_c, np.asarray(cats)[np.argmax(cp, axis=1)], cats),
+                 "material": _confusion(truth_m, np.asarray(mats)[np.argmax(mp, axis=1)], mats)}
+    return scores, confusion
+
+
+def _confusion(truth: Sequence[str], pred: Sequence[str], labels: Sequence[str]
+               ) -> tuple[np.ndarray, tuple[str, ...]]:
+    """(counts with the truth as rows, the labels in order)."""
+    labels = sorted(set(labels) | set(truth))
+    index = {n: i for i, n in enumerate(labels)}
+    m = np.zeros((len(labels), len(labels)), int)
+    for t, p in zip(truth, pred):
+        m[index[t], index[p]] += 1
+    return m, tuple(labels)
+
+
+def confusion_png(matrix: np.ndarray, labels: Sequence[str], title: str, path: Path) -> Path:
+    """A row-normalised confusion matrix (rows: the truth) as a PNG, darker for more."""
+    import cv2
+
+    from fallgen.world.preview import write_png
+
+    n = len(labels)
+    cell, left, top = 18, 150, 60
+    img = np.full((top + n * cell + 20, left + n * cell + 20, 3), 255, np.uint8)
+    norm = matrix / np.maximum(matrix.sum(axis=1, keepdims=True), 1)
+    for i in range(n):
+        for j in range(n):
+            v = int(round(255 * (1 - norm[i, j])))
+            colour = (255, v, v) if i != j else (v, 200 + v * 55 // 255, v)  # RGB
+            y0, x0 = top + i * cell, left + j * cell
+            img[y0:y0 + cell - 1, x0:x0 + cell - 1] = colour
+        cv2.putText(img, str(labels[i])[:20], (4, top + i * cell + 13), cv2.FONT_HERSHEY_SIMPLEX,
+                    0.38, (20, 20, 20), 1, cv2.LINE_AA)
+    accuracy = np.trace(matrix) / max(matrix.sum(), 1)
+    cv2.putText(img, f"{title}: rows truth, columns predicted; accuracy {accuracy:.2f}",
+                (4, 24), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (0, 0, 0), 1, cv2.LINE_AA)
+    return write_png(img, path)
