@@ -228,19 +228,25 @@ def test_windows_are_bright_and_opaque_in_textured_views(world):
 
 def test_objects_look_like_their_material(world):
     """Drawn with textures, an object's visual mesh has its material's gloss (a glass shines,
-    cloth does not) and, where the material has a texture, that texture (a cube map: meshes
-    have no texture coordinates); glass stays transparent; the geom's colour is its
-    material's (MuJoCo lets a geom's colour override its material's)."""
+    cloth does not) and, where the material has a texture, that texture (flat, on the mesh's
+    box-projected texture coordinates); glass and clear plastic (a PET bottle) stay
+    transparent, a coloured plastic does not; the geom's colour is its material's (MuJoCo lets
+    a geom's colour override its material's)."""
     from fallgen.world.scene import GLOSS, PlacedObject
 
     lib = world.categories
     placed = [PlacedObject("a", lib.instance("wineglass", "red_wine", "glass"),
                            (1.0, 1.0, 0.5), free=False),
               PlacedObject("b", lib.instance("spoon", "tablespoon", "metal"),
-                           (1.5, 1.0, 0.5), free=False)]
+                           (1.5, 1.0, 0.5), free=False),
+              PlacedObject("c", lib.instance("bottle", "pet", "plastic_hard/clear"),
+                           (2.0, 1.0, 0.5), free=False),
+              PlacedObject("d", lib.instance("spoon", "plastic", "plastic_hard"),
+                           (2.5, 1.0, 0.5), free=False)]
     scene = build_scene(world.variant(VARIANT), world.materials, placed, settings=LOOK)
     m = scene.model
-    for name, audio, textured in (("a", "glass", False), ("b", "metal", True)):
+    for name, audio, textured in (("a", "glass", False), ("b", "metal", True),
+                                  ("c", "plastic_hard", False), ("d", "plastic_hard", False)):
         g = next(k for k in range(m.ngeom) if scene.geom_owner[k] == f"obj:{name}"
                  and m.geom_matid[k] >= 0)
         mat = m.geom_matid[g]
@@ -248,8 +254,10 @@ def test_objects_look_like_their_material(world):
         assert np.allclose(m.geom_rgba[g], m.mat_rgba[mat])
         has_tex = m.mat_texid[mat, mujoco.mjtTextureRole.mjTEXROLE_RGB] >= 0
         assert has_tex == textured
-        if audio == "glass":
-            assert m.geom_rgba[g, 3] < 0.5
+        if audio == "metal":
+            assert m.tex_type[m.mat_texid[mat, mujoco.mjtTextureRole.mjTEXROLE_RGB]] \
+                == mujoco.mjtTexture.mjTEXTURE_2D
+        assert (m.geom_rgba[g, 3] < 0.5) == (name in "ac")
 
 
 def test_a_plant_is_drawn_in_leaves_and_segmented_as_a_plant(world):

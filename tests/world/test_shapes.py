@@ -26,6 +26,7 @@ DENSITY = {
     "plastic_hard": 1050.0,
     "plastic_hard/wax": 900.0,
     "plastic_hard/golf_ball": 1130.0,
+    "plastic_hard/clear": 1380.0,
     "plastic_soft_foam": 60.0,
     "glass": 2500.0,
     "metal": 7850.0,  # steel
@@ -93,6 +94,7 @@ MASS_G: dict[tuple[str, str, str], tuple[float, float]] = {
     ("cup", "*", "ceramic"): (100, 450),
     ("cup", "*", "glass"): (120, 400),
     ("cup", "*", "plastic_hard"): (40, 200),
+    ("cup", "*", "plastic_hard/clear"): (40, 200),
     # paper coffee cups (8-12 oz): single wall 9-12 g, double-walled 15-30 g
     ("cup", "paper", "*"): (9, 35),
     # cork coaster 4-10 g; stone/ceramic absorbent coaster 150-200 g; wooden 30-60 g
@@ -160,7 +162,7 @@ MASS_G: dict[tuple[str, str, str], tuple[float, float]] = {
     # 1 l pitchers: stoneware 0.6-1.2 kg, glass 0.5-1.0 kg, plastic 150-350 g
     ("jug", "*", "ceramic"): (500, 1300),
     ("jug", "*", "glass"): (450, 1300),
-    ("jug", "*", "plastic_hard"): (120, 400),
+    ("jug", "*", "plastic_hard/clear"): (120, 400),
     # steel bracelet watches 120-180 g (Seiko SKX ~150 g); Casio F-91W 21 g, G-Shock ~50-70 g
     ("watch", "*", "metal"): (90, 220),
     ("watch", "*", "plastic_hard"): (12, 80),
