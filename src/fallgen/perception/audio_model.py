@@ -5,8 +5,9 @@ Trained on a build's train split, scored on another split (``fallgen audio-model
 ``eval``). The features are :class:`~fallgen.perception.audio_features.AudioFeatures`; the
 models scikit-learn's extremely randomised trees (Geurts, Ernst & Wehenkel 2006): a classifier
 each for the category and the material on every feature, a regressor for (cos azimuth, sin
-azimuth, log distance) together on the spatial ones (``AudioFeatures.spatial``). Seeded, and deterministic for a seed on a given machine and library
-version (trees are grown on one thread).
+azimuth, log distance) together on the spatial ones (``AudioFeatures.spatial``). Seeded, and
+deterministic for a seed on a given machine and library version (trees are grown on one
+thread).
 
 The model file (pickle through joblib: load only files you trust) holds the feature settings,
 the label tables and the train split's manifest hash; a dataset whose clips differ from the
