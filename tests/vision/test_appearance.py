@@ -118,36 +118,58 @@ def test_a_dropped_camera_frees_its_gl_objects_in_its_own_context(world):
     assert np.array_equal(got.instance, want.instance)
 
 
-def _face_on(texture, half_x, half_y, repeat=None, px=300, view_m=1.0):
-    """An orthographic view, ``view_m`` high, of the +z face of a box drawn by the scenes' own
-    texturing (:func:`fallgen.world.scene._look`), its local y up: the grey levels."""
-    import cv2
+#: a frame with x across and z up, looking along +y (world -y toward the viewer)
+_FACING = np.column_stack([[1, 0, 0], [0, 0, 1], [0, -1, 0]]).ravel().astype(float)
 
-    from fallgen.world.scene import _look
 
+def _flat_lit_spec() -> mujoco.MjSpec:
+    """An empty scene lit by an ambient headlight only (a texture's own grey levels)."""
     spec = mujoco.MjSpec()
     spec.visual.headlight.ambient = [1.0, 1.0, 1.0]
     spec.visual.headlight.diffuse = [0.0, 0.0, 0.0]
-    g = spec.worldbody.add_geom()
-    g.type, g.size = mujoco.mjtGeom.mjGEOM_BOX, [half_x, half_y, 0.05]
-    q = np.zeros(4)  # local z toward the camera (world -y), local y up
-    mujoco.mju_mat2Quat(q, np.column_stack([[1, 0, 0], [0, 0, 1], [0, -1, 0]]).ravel()
-                        .astype(float))
-    g.quat = q
-    _look(spec, g, texture, [0.9, 0.9, 0.9, 1.0], repeat)
+    return spec
+
+
+def _orthographic_grey(spec: mujoco.MjSpec, px: int = 300, view_m: float = 1.0) -> np.ndarray:
+    """The grey levels of an orthographic view, ``view_m`` high, of ``spec`` from 2 m along
+    world -y (x across, z up)."""
+    import cv2
+
     cam = spec.worldbody.add_camera()
-    cam.name, cam.pos, cam.fovy = "face", [0.0, -2.0, 0.0], view_m
+    cam.name, cam.pos, cam.fovy = "ortho", [0.0, -2.0, 0.0], view_m
     cam.proj = mujoco.mjtProjection.mjPROJ_ORTHOGRAPHIC
-    mujoco.mju_mat2Quat(q, np.column_stack([[1, 0, 0], [0, 0, 1], [0, -1, 0]]).ravel()
-                        .astype(float))
+    q = np.zeros(4)
+    mujoco.mju_mat2Quat(q, _FACING)
     cam.quat = q
     model = spec.compile()
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     with mujoco.Renderer(model, px, px) as r:
-        r.update_scene(data, "face")
+        r.update_scene(data, "ortho")
         rgb = r.render()
     return cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY).astype(float)
+
+
+def _dark_line_centres(profile: np.ndarray) -> np.ndarray:
+    """Centres (pixels) of the runs of a profile darker than its mean by half its spread."""
+    dark = np.flatnonzero(profile < profile.mean() - 0.5 * profile.std())
+    runs = np.split(dark, np.flatnonzero(np.diff(dark) > 1) + 1)
+    return np.array([r.mean() for r in runs if len(r)])
+
+
+def _face_on(texture, half_x, half_y, repeat=None, px=300, view_m=1.0):
+    """An orthographic view, ``view_m`` high, of the +z face of a box drawn by the scenes' own
+    texturing (:func:`fallgen.world.scene._look`), its local y up: the grey levels."""
+    from fallgen.world.scene import _look
+
+    spec = _flat_lit_spec()
+    g = spec.worldbody.add_geom()
+    g.type, g.size = mujoco.mjtGeom.mjGEOM_BOX, [half_x, half_y, 0.05]
+    q = np.zeros(4)  # local z toward the camera (world -y), local y up
+    mujoco.mju_mat2Quat(q, _FACING)
+    g.quat = q
+    _look(spec, g, texture, [0.9, 0.9, 0.9, 1.0], repeat)
+    return _orthographic_grey(spec, px, view_m)
 
 
 def test_texture_repeats_at_its_size_in_metres():
@@ -158,10 +180,7 @@ def test_texture_repeats_at_its_size_in_metres():
 
     grey = _face_on(TextureSpec.make("tiles", 1.0, tile_m=0.25, grout_m=0.01, grout=0.3,
                                      variation=0.0), 1.0, 1.0)
-    cols = grey.mean(axis=0)
-    dark = np.flatnonzero(cols < cols.mean() - 0.5 * cols.std())
-    runs = np.split(dark, np.flatnonzero(np.diff(dark) > 1) + 1)
-    centres = np.array([r.mean() for r in runs if len(r)])
+    centres = _dark_line_centres(grey.mean(axis=0))
     spacing = np.diff(centres)
     assert len(spacing) >= 3, centres
     assert np.all(np.abs(spacing - 75.0) <= 1.5), centres
@@ -336,7 +355,6 @@ def test_an_objects_texture_sits_at_its_size_in_metres():
     triangle corner is mapped on the plane its triangle faces."""
     import types
 
-    import cv2
     import trimesh
 
     from fallgen.world.appearance import TextureSpec
@@ -350,9 +368,7 @@ def test_an_objects_texture_sits_at_its_size_in_metres():
     np.testing.assert_allclose(uv[corners[side]].reshape(-1, 2),
                                mesh.vertices[mesh.faces[side]].reshape(-1, 3)[:, [0, 2]])
 
-    spec = mujoco.MjSpec()
-    spec.visual.headlight.ambient = [1.0, 1.0, 1.0]
-    spec.visual.headlight.diffuse = [0.0, 0.0, 0.0]
+    spec = _flat_lit_spec()
     m = spec.add_mesh()
     m.name = "thing"
     m.uservert = mesh.vertices.ravel().tolist()
@@ -363,23 +379,8 @@ def test_an_objects_texture_sits_at_its_size_in_metres():
     g.type, g.meshname = mujoco.mjtGeom.mjGEOM_MESH, "thing"
     material = types.SimpleNamespace(name="tiled", audio="ceramic", texture=tiles)
     _object_look(spec, g, material, [0.9, 0.9, 0.9, 1.0], None, mapped=True)
-    cam = spec.worldbody.add_camera()
-    cam.name, cam.pos, cam.fovy = "side", [0.0, -2.0, 0.0], 1.0
-    cam.proj = mujoco.mjtProjection.mjPROJ_ORTHOGRAPHIC
-    q = np.zeros(4)
-    mujoco.mju_mat2Quat(q, np.column_stack([[1, 0, 0], [0, 0, 1], [0, -1, 0]]).ravel()
-                        .astype(float))
-    cam.quat = q
-    model = spec.compile()
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
-    with mujoco.Renderer(model, 300, 300) as r:
-        r.update_scene(data, "side")
-        grey = cv2.cvtColor(r.render(), cv2.COLOR_RGB2GRAY).astype(float)
-    cols = grey[30:270, 30:270].mean(axis=0)
-    dark = np.flatnonzero(cols < cols.mean() - 0.5 * cols.std())
-    runs = np.split(dark, np.flatnonzero(np.diff(dark) > 1) + 1)
-    centres = np.array([r.mean() for r in runs if len(r)])
+    grey = _orthographic_grey(spec)
+    centres = _dark_line_centres(grey[30:270, 30:270].mean(axis=0))
     spacing = np.diff(centres)
     assert len(spacing) >= 2, centres
     assert np.all(np.abs(spacing - 75.0) <= 1.5), centres

@@ -151,11 +151,9 @@ class AudioFeatures:
             peaks.append(float(window[k]))
         # the direct sound's level difference per band group
         n = max(int(self.direct_s * fs), 64)
-        spec_l = np.abs(np.fft.rfft(x[0, s0:s0 + n] * np.hanning(len(x[0, s0:s0 + n])),
-                                    self.frame)) ** 2
-        spec_r = np.abs(np.fft.rfft(x[1, s0:s0 + n] * np.hanning(len(x[1, s0:s0 + n])),
-                                    self.frame)) ** 2
-        ml, mr = self._mel @ spec_l, self._mel @ spec_r
+        direct_sound = x[:, s0:s0 + n]
+        ml, mr = np.abs(np.fft.rfft(direct_sound * np.hanning(direct_sound.shape[1]),
+                                    self.frame, axis=-1)) ** 2 @ self._mel.T
         ild_direct = [10 * math.log10((ml[g].sum() + EPS) / (mr[g].sum() + EPS)) for g in groups]
         left, right = x[0, s0:s0 + int(0.05 * fs)], x[1, s0:s0 + int(0.05 * fs)]
         e_l, e_r = float((left ** 2).sum()), float((right ** 2).sum())

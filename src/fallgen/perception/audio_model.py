@@ -210,16 +210,26 @@ class AudioModel:
                           float(d.get("position_error_m", 1.0)), dict(d.get("meta", {})))
 
 
+def _xy(place: np.ndarray) -> np.ndarray:
+    """(N, 2) positions in the agent's frame of (N, 2) azimuths (rad) and distances (m)."""
+    return place[:, 1:2] * np.column_stack([np.cos(place[:, 0]), np.sin(place[:, 0])])
+
+
 def _positions(Y: np.ndarray) -> np.ndarray:
-    az = np.arctan2(Y[:, 1], Y[:, 0])
-    d = np.exp(Y[:, 2])
-    return np.column_stack([d * np.cos(az), d * np.sin(az)])
+    """:func:`_xy` of the place model's targets (cos azimuth, sin azimuth, log distance)."""
+    return _xy(np.column_stack([np.arctan2(Y[:, 1], Y[:, 0]), np.exp(Y[:, 2])]))
 
 
 # -- scores ---------------------------------------------------------------------------------------
 
 def _angle_error_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.degrees(np.abs(np.arctan2(np.sin(a - b), np.cos(a - b))))
+
+
+def _lateral_error_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Error of the lateral angle (front and back folded onto each other): what two ears tell
+    apart without a pinna (the spherical head's cues are the same in front and behind)."""
+    return np.degrees(np.abs(np.arcsin(np.sin(a)) - np.arcsin(np.sin(b))))
 
 
 def _topk(p: np.ndarray, classes: Sequence[str], truth: Sequence[str], k: int) -> float:
@@ -259,14 +269,8 @@ def evaluate(model: AudioModel, ds, rows: Sequence[dict], train_rows: Sequence[d
     truth_m = [r["audio_material"] for r in rows]
     true_place = place_targets(rows)
     az_err = _angle_error_deg(place[:, 0], true_place[:, 0])
-    # the lateral angle (front and back folded onto each other): what two ears tell apart
-    # without a pinna (the spherical head's cues are the same in front and behind)
-    lat_err = np.degrees(np.abs(np.arcsin(np.sin(place[:, 0]))
-                                - np.arcsin(np.sin(true_place[:, 0]))))
-    pos_err = np.linalg.norm(_positions(np.column_stack(
-        [np.cos(place[:, 0]), np.sin(place[:, 0]), np.log(place[:, 1])])) - _positions(
-        np.column_stack([np.cos(true_place[:, 0]), np.sin(true_place[:, 0]),
-                         np.log(true_place[:, 1])])), axis=1)
+    lat_err = _lateral_error_deg(place[:, 0], true_place[:, 0])
+    pos_err = np.linalg.norm(_xy(place) - _xy(true_place), axis=1)
     freq_c = [c for c, _ in Counter(r["category"] for r in train_rows).most_common()]
     freq_m = [m for m, _ in Counter(r["audio_material"] for r in train_rows).most_common()]
     prior = room_centre_prior(rows, world)
@@ -288,8 +292,8 @@ def evaluate(model: AudioModel, ds, rows: Sequence[dict], train_rows: Sequence[d
             "category_top5": float(np.mean([t in freq_c[:5] for t in truth_c])),
             "material_top1": float(np.mean([t in freq_m[:1] for t in truth_m])),
             "azimuth_median_error_deg": float(np.median(prior_az)),
-            "lateral_median_error_deg": float(np.median(np.degrees(np.abs(
-                np.arcsin(np.sin(prior[:, 0])) - np.arcsin(np.sin(true_place[:, 0])))))),
+            "lateral_median_error_deg": float(np.median(_lateral_error_deg(
+                prior[:, 0], true_place[:, 0]))),
             "distance_rank_correlation": _spearman(prior[:, 1], true_place[:, 1]),
         },
     }

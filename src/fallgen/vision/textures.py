@@ -316,8 +316,14 @@ def _doors(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
     handle = np.zeros((px, px))
     hw, hl = 0.012, min(0.14, 0.5 * h)  # a bar handle's width and length
     knobs = int(round(p["knobs"])) if drawer else 0
-    for k in range(n if not knobs else 0):
+    for k in range(n):
         x0, x1 = k * w / n, (k + 1) * w / n
+        if knobs:  # an oven: one bar across the top of its door, knobs above (no drawers)
+            handle = np.maximum(handle, _cover(drawer + 0.04, drawer + 0.04 + 1.5 * hw, h,
+                                               px)[:, None]
+                                * _cover(x0 + 0.15 * (x1 - x0), x1 - 0.15 * (x1 - x0), w,
+                                         px)[None, :])
+            continue
         # a door's handle by the edge it opens from (pairs meet in the middle), near its top
         hx = x1 - 0.05 if (k % 2 == 0 and k + 1 < n) or n == 1 else x0 + 0.05
         handle = np.maximum(handle, _cover(drawer + 0.05, drawer + 0.05 + hl, h, px)[:, None]
@@ -327,13 +333,6 @@ def _doors(spec: TextureSpec, px: int, rng: np.random.Generator) -> np.ndarray:
             handle = np.maximum(handle,
                                 _cover(drawer / 2 - hw / 2, drawer / 2 + hw / 2, h, px)[:, None]
                                 * _cover(xm - hl / 2, xm + hl / 2, w, px)[None, :])
-    if knobs:  # an oven: one bar across the top of its door (or doors), knobs above
-        for k in range(n):
-            x0, x1 = k * w / n, (k + 1) * w / n
-            handle = np.maximum(handle, _cover(drawer + 0.04, drawer + 0.04 + 1.5 * hw, h,
-                                               px)[:, None]
-                                * _cover(x0 + 0.15 * (x1 - x0), x1 - 0.15 * (x1 - x0), w,
-                                         px)[None, :])
     handle = np.minimum(handle, 1.0)
     level = 0.012 * periodic_noise(rng, px, 1.0) - 0.45 * gap \
         - 0.5 * p["handle"] * handle * (1.0 - gap)
