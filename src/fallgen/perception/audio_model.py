@@ -127,13 +127,19 @@ class AudioModel:
     # -- training and prediction ----------------------------------------------------------
     @staticmethod
     def train(ds, rows: Sequence[dict], seed: int = 0, trees: int = 300,
-              progress: Callable[[int], None] | None = None) -> AudioModel:
+              progress: Callable[[int], None] | None = None,
+              X: np.ndarray | None = None) -> AudioModel:
+        """Learn from ``rows`` of ``ds`` (``X``: their :func:`feature_matrix`, when it is
+        already at hand)."""
         from sklearn.ensemble import ExtraTreesClassifier, ExtraTreesRegressor
 
         if len(rows) < 2:
             raise ValueError(f"{len(rows)} training episode(s): need at least 2")
         features = dataset_features(ds, rows)
-        X = feature_matrix(ds, rows, features, progress)
+        if X is None:
+            X = feature_matrix(ds, rows, features, progress)
+        elif X.shape != (len(rows), len(features.names)):
+            raise ValueError(f"X is {X.shape}, not ({len(rows)}, {len(features.names)})")
         place = place_targets(rows)
         Y = np.column_stack([np.cos(place[:, 0]), np.sin(place[:, 0]), np.log(place[:, 1])])
         common = dict(n_estimators=trees, random_state=seed, n_jobs=1, min_samples_leaf=1,
@@ -158,9 +164,8 @@ class AudioModel:
         """(category probabilities (N, C), material probabilities (N, M), places (N, 2):
         azimuth rad, distance m)."""
         Y = self.place_model.predict(X[:, self.features.spatial])
-        az = np.arctan2(Y[:, 1], Y[:, 0])
         return (self.category_model.predict_proba(X), self.material_model.predict_proba(X),
-                np.column_stack([az, np.exp(Y[:, 2])]))
+                np.column_stack([azimuth(Y), np.exp(Y[:, 2])]))
 
     def predict(self, audio: np.ndarray) -> AudioPrediction:
         cp, mp, place = self.predict_matrix(self.features.extract(audio)[None, :])
@@ -215,9 +220,21 @@ def _xy(place: np.ndarray) -> np.ndarray:
     return place[:, 1:2] * np.column_stack([np.cos(place[:, 0]), np.sin(place[:, 0])])
 
 
+def azimuth(Y: np.ndarray) -> np.ndarray:
+    """Azimuths (rad) of the place model's (N, 3) predictions (cos azimuth, sin azimuth, log
+    distance): the lateral angle from the sine, the side (front or back) from the cosine's
+    sign. Two ears tell the lateral angle well and front from back poorly (a spherical head
+    not at all): where the trees are unsure of the side, their cosine averages toward 0, and
+    ``atan2(sin, cos)`` would swing every such estimate out to +-90 degrees, however well the
+    sine knew the lateral angle."""
+    s = np.clip(Y[:, 1], -1.0, 1.0)
+    return np.arctan2(s, np.where(Y[:, 0] >= 0, 1.0, -1.0) * np.sqrt(1.0 - s * s))
+
+
 def _positions(Y: np.ndarray) -> np.ndarray:
-    """:func:`_xy` of the place model's targets (cos azimuth, sin azimuth, log distance)."""
-    return _xy(np.column_stack([np.arctan2(Y[:, 1], Y[:, 0]), np.exp(Y[:, 2])]))
+    """:func:`_xy` of the place model's targets or predictions (cos azimuth, sin azimuth, log
+    distance)."""
+    return _xy(np.column_stack([azimuth(Y), np.exp(Y[:, 2])]))
 
 
 # -- scores ---------------------------------------------------------------------------------------
@@ -258,11 +275,14 @@ def room_centre_prior(rows: Sequence[dict], world) -> np.ndarray:
 
 
 def evaluate(model: AudioModel, ds, rows: Sequence[dict], train_rows: Sequence[dict],
-             world, progress: Callable[[int], None] | None = None
+             world, progress: Callable[[int], None] | None = None,
+             X: np.ndarray | None = None
              ) -> tuple[dict, dict[str, tuple[np.ndarray, tuple[str, ...]]]]:
     """Scores of ``model`` on ``rows`` and of the no-audio prior (from ``train_rows``), by
-    zone kind and by distance too; and the confusion matrices (rows: truth) by name."""
-    X = feature_matrix(ds, rows, model.features, progress)
+    zone kind and by distance too; and the confusion matrices (rows: truth) by name. ``X``:
+    the rows' feature matrix, when it is already at hand."""
+    if X is None:
+        X = feature_matrix(ds, rows, model.features, progress)
     cp, mp, place = model.predict_matrix(X)
     cats, mats = list(model.category_model.classes_), list(model.material_model.classes_)
     truth_c = [r["category"] for r in rows]
