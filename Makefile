@@ -9,7 +9,7 @@ export MUJOCO_GL ?= egl
 CONFIG ?= configs/full.toml
 WORKERS ?= $(shell nproc 2>/dev/null || echo 2)
 
-.PHONY: setup demo test test-fast bench bench-full loudness assets rehearse generate dataset smoke clean lint
+.PHONY: setup demo test test-fast bench bench-full loudness table assets rehearse generate dataset smoke clean lint
 
 setup: $(VENV)/.fallgen-installed
 $(VENV)/.fallgen-installed: pyproject.toml scripts/setup.sh
@@ -65,6 +65,17 @@ bench-full: setup
 	@mkdir -p build
 	$(PY) bench/full_build.py --workers $(WORKERS) --one-worker | tee build/bench-full.json
 	$(PY) bench/report.py build
+
+## table: the paper's Table 1 and Table 2 on the paper-size build (made first when missing),
+## with the learned audio module: build/table/table.md. TABLE_EPISODES per Table 1 row and
+## TABLE_CROSS per room kind in Table 2 (0: every test episode).
+TABLE_DATASET ?= build/full
+TABLE_EPISODES ?= 300
+TABLE_CROSS ?= 200
+table: setup
+	@test -f $(TABLE_DATASET)/manifest.json || $(MAKE) dataset
+	$(FALLGEN) table $(TABLE_DATASET) -o build/table --episodes $(TABLE_EPISODES) \
+		--cross-episodes $(TABLE_CROSS) --workers $(WORKERS)
 
 assets: setup
 	$(FALLGEN) assets modes --workers $(WORKERS)

@@ -59,7 +59,8 @@ def _open(dataset: Path):
 
 
 def _agent_ref(agent: str | None, agent_kwargs: str | None, actions: Path | None,
-               baseline: str | None, oracles: str | None):
+               baseline: str | None, oracles: str | None, audio_model: Path | None = None,
+               audio_top_k: int = 1, dataset: Path | None = None):
     import json
 
     from fallgen.agents import BASELINES, ORACLES
@@ -74,6 +75,8 @@ def _agent_ref(agent: str | None, agent_kwargs: str | None, actions: Path | None
                          + (f" (got {', '.join(given)})" if given else ""))
     if oracles is not None and baseline != "modular":
         raise InputError("<command line>", "--oracles", "only for --baseline modular")
+    if audio_model is not None and baseline != "modular":
+        raise InputError("<command line>", "--audio-model", "only for --baseline modular")
     if agent is not None:
         kwargs = {}
         if agent_kwargs:
@@ -106,7 +109,24 @@ def _agent_ref(agent: str | None, agent_kwargs: str | None, actions: Path | None
             raise InputError("<command line>", "--oracles", f"{bad[0]!r}: choose from "
                              f"{', '.join(ORACLES)} (or none)")
         chosen = tuple(o for o in ORACLES if o in chosen)
-    return AgentRef("baseline", baseline, oracles=chosen)
+    kwargs = {}
+    if audio_model is not None:
+        _check_audio_model(audio_model, dataset)
+        kwargs = {"audio_model": str(audio_model), "audio_top_k": int(audio_top_k)}
+    return AgentRef("baseline", baseline, oracles=chosen, kwargs=kwargs)
+
+
+def _check_audio_model(path: Path, dataset: Path | None) -> None:
+    """Load the model once here (a one-line error for a bad file, or for a dataset whose clips
+    it was not made for) rather than in every worker."""
+    from fallgen.perception.audio_model import AudioModel, check_features
+
+    model = AudioModel.load(path)
+    if dataset is not None:
+        ds = _open(dataset)
+        rows = ds.rows(ds.splits[0]) if ds.splits else []
+        if rows:
+            check_features(ds, rows[:1], model.features, path)
 
 
 def register(app: typer.Typer, console: Console) -> None:
@@ -140,6 +160,12 @@ def register(app: typer.Typer, console: Console) -> None:
         oracles: Annotated[Optional[str], typer.Option(
             help="The modular agent's oracles: any of segmentation,category,location, or "
             "none (default: all three).")] = None,
+        audio_model: Annotated[Optional[Path], typer.Option(
+            help="The modular agent's goal predictor where an oracle is off: a model file "
+            "of fallgen audio-model train (category and where the fall was heard).")] = None,
+        audio_top_k: Annotated[int, typer.Option(
+            min=1, help="With --audio-model: the agent takes an object of any of the model's "
+            "k likeliest categories for the fallen one.")] = 1,
         workers: Annotated[Optional[int], typer.Option(
             min=1, help="Worker processes (default: all cores).", show_default=False)] = None,
         claims: Annotated[int, typer.Option(min=1, help="found claims allowed (2: the "
@@ -163,7 +189,8 @@ def register(app: typer.Typer, console: Console) -> None:
 
         _open(dataset)
         ids = parse_ids(episodes)
-        ref = _agent_ref(agent, agent_kwargs, actions, baseline, oracles)
+        ref = _agent_ref(agent, agent_kwargs, actions, baseline, oracles, audio_model,
+                         audio_top_k, dataset)
         if reward not in ("paper", "geodesic"):
             raise InputError("<command line>", "--reward", f"{reward!r}: paper or geodesic")
         cats = [c.strip() for c in category.split(",") if c.strip()] if category else None
@@ -268,6 +295,56 @@ def register(app: typer.Typer, console: Console) -> None:
                 raise InputError(dataset, "expert_actions" if "expert" in str(e) else
                                  "--format", str(e)) from None
         console.print(f"{len(ids)} expert trajectories -> {path}")
+
+    @app.command("table")
+    def table_cmd(
+        dataset: Annotated[Path, typer.Argument(help="A dataset directory (a paper-size build: "
+                                                "make dataset).")],
+        out: Annotated[Path, typer.Option("--out", "-o", help="Directory for table.md, "
+                                          "table.json, the rows, models and audio scores.")
+                       ] = Path("build/table"),
+        episodes: Annotated[int, typer.Option(
+            min=0, help="Test episodes per Table 1 row (a seeded subsample; 0: all).")] = 300,
+        cross_episodes: Annotated[int, typer.Option(
+            min=0, help="Test episodes of each room kind for Table 2 (0: all).")] = 200,
+        workers: Annotated[Optional[int], typer.Option(
+            min=1, help="Worker processes (default: all cores).", show_default=False)] = None,
+        seed: Annotated[int, typer.Option(help="Seeds the subsample, the audio models and "
+                                          "the agents.")] = 0,
+        trees: Annotated[int, typer.Option(min=1, help="Trees per audio model.")] = 300,
+        data_dir: Annotated[Optional[Path], typer.Option(
+            "--data-dir", help="World data the dataset was built with (default: built-in).",
+            show_default=False)] = None,
+    ) -> None:
+        """The paper's Table 1 (random, the modular agent with the learned audio module and
+        its oracle ablations, the expert) and Table 2 (the audio module learned on one room
+        kind, tested on the other) with 95 % intervals, into OUT/table.md; reruns keep what
+        is done."""
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, \
+            TimeElapsedColumn
+
+        from fallgen.evaluation.table import make_table
+
+        _open(dataset)
+        with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                      TimeElapsedColumn(), console=console) as bar:
+            tasks: dict[str, int] = {}
+
+            def progress(step: str, done: int, total: int) -> None:
+                if step not in tasks:
+                    tasks[step] = bar.add_task(step, total=total)
+                bar.update(tasks[step], completed=done, description=step)
+
+            try:
+                run = make_table(dataset, out, episodes=episodes, cross_episodes=cross_episodes,
+                                 workers=workers or (os.cpu_count() or 1), seed=seed,
+                                 trees=trees, data_dir=data_dir, log=console.print,
+                                 progress=progress)
+            except ValueError as e:
+                raise InputError(dataset, _field(str(e), "data/"), str(e)) from None
+        console.print((out / "table.md").read_text())
+        console.print(f"{len(run.results)} rows in {run.timings['total'] / 60:.1f} min -> "
+                      f"{out / 'table.md'}")
 
     audio_app = typer.Typer(help="The auditory perception module (issue 30): train it on a "
                             "build's train split, score it on another.", no_args_is_help=True)

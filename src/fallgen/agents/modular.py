@@ -67,11 +67,13 @@ class GoalEstimate:
     """Where and what the fallen object is, as a predictor believes: ``position`` (2,) or (3,)
     in the spawn's frame (x forward, y left, metres; z above the floor when given),
     ``radius_m`` its uncertainty (the agent searches that far around it), ``category`` the
-    category id (None: unknown)."""
+    category id (None: unknown); ``categories`` the categories it could be, most likely
+    first (empty: ``category`` alone), any of which the agent takes for the object."""
 
     position: np.ndarray | None
     radius_m: float = 1.0
     category: str | None = None
+    categories: tuple[str, ...] = ()
 
 
 @runtime_checkable
@@ -168,9 +170,10 @@ class ModularAgent:
             self.target_idx = np.array([int(obs["object_category"])], np.int64)
         if self.predictor is not None:
             est = self.predictor.predict(obs)
-            if est.category is not None and "category" not in self.oracles \
-                    and est.category in self.labels:
-                self.target_idx = np.array([self.labels.index(est.category)], np.int64)
+            guess = [c for c in (est.categories or (est.category,)) if c in self.labels]
+            if guess and "category" not in self.oracles:
+                self.target_idx = np.array(sorted({self.labels.index(c) for c in guess}),
+                                           np.int64)
             if est.position is not None and "location" not in self.oracles:
                 p = np.asarray(est.position, float)
                 z = p[2] if len(p) > 2 else 0.3

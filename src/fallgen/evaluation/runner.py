@@ -31,8 +31,9 @@ ROW_KEYS = ("split", "room_kind", "room_variant", "zone_kind", "category", "audi
 @dataclass(frozen=True)
 class AgentRef:
     """Which agent: ``kind`` is ``baseline`` (``name``: expert, random, modular; ``oracles``
-    for modular), ``factory`` (``name``: ``module:function``, called with ``kwargs``) or
-    ``actions`` (``actions``: episode id -> action sequence)."""
+    for modular, and in ``kwargs`` ``audio_model``: a model file, and ``audio_top_k``),
+    ``factory`` (``name``: ``module:function``, called with ``kwargs``) or ``actions``
+    (``actions``: episode id -> action sequence)."""
 
     kind: str
     name: str = ""
@@ -42,7 +43,10 @@ class AgentRef:
 
     def describe(self) -> str:
         if self.kind == "baseline":
-            return self.name + (f"[{'+'.join(self.oracles)}]" if self.oracles else "")
+            audio = "+audio" if self.kwargs.get("audio_model") else ""
+            if self.kwargs.get("audio_top_k", 1) > 1:
+                audio += f"(top {self.kwargs['audio_top_k']})"
+            return self.name + audio + (f"[{'+'.join(self.oracles)}]" if self.oracles else "")
         if self.kind == "factory":
             return self.name
         return "actions"
@@ -122,7 +126,8 @@ def make_agent(ref: AgentRef, category_labels: Sequence[str] = (),
     if ref.kind == "baseline":
         from fallgen.agents import make_baseline
 
-        return make_baseline(ref.name, category_labels, object_categories, ref.oracles)
+        return make_baseline(ref.name, category_labels, object_categories, ref.oracles,
+                             **ref.kwargs)
     if ref.kind == "factory":
         agent = load_factory(ref.name)(**ref.kwargs)
         if not (callable(getattr(agent, "act", None)) and callable(getattr(agent, "reset", None))):
