@@ -217,12 +217,15 @@ def test_a_start_overlap_is_rejected_without_simulating(world):
 
 def test_covered_zones_are_reached_by_real_falls(world, tmp_path):
     """Every kept event falls at least min_fall_m before its first impact, also into a shelf
-    between two boards (0.46 m: small objects start inside, higher) and under a sofa (9 cm:
-    thrown beside it, sliding under); a stricter minimum leaves no shorter fall."""
-    from fallgen.physics.drop import fall_height_m
+    between two boards (0.46 m: small objects start inside, higher), under a sofa (9 cm:
+    thrown beside it, sliding under) and under a dining table (room enough below its top,
+    but an object gets there off the table, not from beneath it: every start lies beside the
+    table, above its top); a stricter minimum leaves no shorter fall."""
+    from fallgen.physics.drop import COVER_CLEARANCE_M, fall_height_m
 
     cases = [("kitchen_galley-l1-m1", ("shelf", "counter_top")),
-             ("study_lounge-l1-m1", ("under_furniture",))]
+             ("study_lounge-l1-m1", ("under_furniture",)),
+             ("kitchen_dining-l1-m1", ("under_furniture",))]
     started_beside = 0
     for vid, kinds in cases:
         v = world.variant(vid)
@@ -240,4 +243,7 @@ def test_covered_zones_are_reached_by_real_falls(world, tmp_path):
             assert fall_height_m(e.contacts, e.start_linvel[2]) >= 0.3, e.event_id
             zone = v.zone(e.zone)
             started_beside += not zone.drop.contains(np.array([e.start_pos]), 1e-6)[0]
+            if zone.kind == "under_furniture":
+                assert not zone.drop.contains(np.array([e.start_pos]), 1e-6)[0], e.event_id
+                assert e.start_pos[2] >= zone.drop.zmax + COVER_CLEARANCE_M, e.event_id
     assert started_beside > 0  # some fell from outside their zone's cavity

@@ -243,13 +243,19 @@ def run_trial(world: World, variant: RoomVariant, zone: Zone, trial: int,
         lo, hi = max(zone.drop.zmin + r, lowest), zone.drop.zmax - r
     quat = _uniform_quat(rng)
     throw = (0.0, 0.0)
-    if hi < lo:
+    under = zone.kind == "under_furniture" and not zone.open_above
+    if hi < lo or under:
         # No room above the zone for such a fall (under a sofa, between shelf boards, a
         # cabinet top under the ceiling): it falls beside the zone, thrown toward it, as an
-        # object knocked off something nearby, and is kept if it ends inside.
+        # object knocked off something nearby, and is kept if it ends inside. Under a table
+        # or a desk too, though there is room below its top: nothing falls from there; an
+        # object gets under a table by falling off it (or off the counter beside it) onto the
+        # floor by its edge and bouncing or sliding in.
         top = variant.size_m[2] - r
-        start = _beside(rng, variant, zone, r, lowest, min(lowest + BESIDE_SPAN_M, top)) \
-            if lowest <= top else None
+        z0 = max(lowest, zone.drop.zmax + COVER_CLEARANCE_M + r) if under else lowest
+        z1 = max(z0 + BESIDE_SPAN_M, cfg.drop_height_m[0]) if under else z0 + BESIDE_SPAN_M
+        start = _beside(rng, variant, zone, r, z0, min(z1, top),
+                        slide=True if under else None) if z0 <= top else None
         if start is None:
             return TrialOutcome("does_not_fit", None, cid)
         x, y, z, throw = start
@@ -286,6 +292,9 @@ def run_trial(world: World, variant: RoomVariant, zone: Zone, trial: int,
 BESIDE_SPAN_M = 0.5
 #: Sides tried for a start beside a zone before giving up.
 BESIDE_TRIES = 12
+#: A fall into a zone under furniture starts at least this far (m) above the underside of
+#: its cover (the top's thickness and a margin): off the table, not from beneath it.
+COVER_CLEARANCE_M = 0.1
 
 
 def _low_cover(zone: Zone, r: float) -> bool:
@@ -295,9 +304,10 @@ def _low_cover(zone: Zone, r: float) -> bool:
 
 
 def _beside(rng: np.random.Generator, variant: RoomVariant, zone: Zone, r: float,
-            z_lo: float, z_hi: float) -> tuple[float, float, float, tuple[float, float]] | None:
+            z_lo: float, z_hi: float, slide: bool | None = None
+            ) -> tuple[float, float, float, tuple[float, float]] | None:
     """A start beside ``zone``'s drop region, for a zone with no room above it for a long
-    enough fall: (x, y, z, the horizontal velocity of the throw). It is thrown to a point
+    enough fall or under furniture: (x, y, z, the horizontal velocity of the throw). It is thrown to a point
     drawn in the region, fast enough to reach it while falling onto it, or, under a low cover,
     to the floor before the opening at 0.4-1.5 m/s, on to slide under (the zone's depth at a
     sliding friction of ~0.4). The side is drawn uniformly around the region, the
@@ -305,9 +315,10 @@ def _beside(rng: np.random.Generator, variant: RoomVariant, zone: Zone, r: float
     [``z_lo``, ``z_hi``]; a side is taken when the start and the first 70 % of the throw's
     path (a parabola down to the zone's support) clear every furniture part by ``r`` / 2 (a
     shelf's side panels, a wall cabinet: only the open side of a cavity will do). None when
-    no side of ``BESIDE_TRIES`` does."""
+    no side of ``BESIDE_TRIES`` does. ``slide``: whether the zone is entered sliding, as under
+    a low cover (None: whether its cover is low)."""
     parts = [p.box for _, p in variant.parts()]
-    low = _low_cover(zone, r)
+    low = _low_cover(zone, r) if slide is None else slide
     c, s = math.cos(zone.drop.yaw), math.sin(zone.drop.yaw)
     hx, hy = zone.drop.half[0], zone.drop.half[1]
     lx_room, ly_room = variant.size_m[0], variant.size_m[1]
