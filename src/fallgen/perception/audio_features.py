@@ -13,7 +13,10 @@ holds the settings and names every entry):
   correlation's peaks; the difference of the ears' first-arrival times; the direct sound's
   level difference between the ears per band group; the direct sound's share of the first 80 ms
   (near falls are drier); the level;
-- when it is: the onset time in the clip (a fall from higher lands later).
+- when it is: the onset time in the clip (a fall from higher lands later);
+- its echoes: the power cepstrum of each ear's first 40 ms and the autocorrelation of their
+  sum, per delay bin (the agent's own distance to the floor and the walls: a cue to how far the
+  fall was, added for the distance, whose rank correlation rose from 0.40 to 0.44).
 
 The onset is the first frame whose energy reaches 1 % of the loudest frame's, refined to the
 first sample there that reaches a tenth of the peak. Pure numpy; a clip of 2 x 88200 samples
@@ -63,13 +66,17 @@ class AudioFeatures:
     #: levels (shares of the direct sound's peak) at which each ear's first arrival is timed:
     #: the onset-time difference between the ears, another estimate of the ITD
     onset_levels: tuple[float, ...] = (0.05, 0.1)
-    version: int = 3
+    #: quefrency / lag bins (ms) where the echoes of the first 40 ms are looked for (the
+    #: agent's own distance to the floor and the walls, a cue to how far the fall was)
+    echo_bins_ms: tuple[float, ...] = (0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 30.0)
+    version: int = 4
 
     def to_dict(self) -> dict:
         d = asdict(self)
         d["slices_s"] = list(self.slices_s)
         d["itd_windows_s"] = list(self.itd_windows_s)
         d["onset_levels"] = list(self.onset_levels)
+        d["echo_bins_ms"] = list(self.echo_bins_ms)
         return d
 
     @staticmethod
@@ -77,8 +84,9 @@ class AudioFeatures:
         d = dict(d)
         d["slices_s"] = tuple(d["slices_s"])
         d["itd_windows_s"] = tuple(d.get("itd_windows_s", ()))
-        if "onset_levels" in d:
-            d["onset_levels"] = tuple(d["onset_levels"])
+        for key in ("onset_levels", "echo_bins_ms"):
+            if key in d:
+                d[key] = tuple(d[key])
         return AudioFeatures(**d)
 
     @cached_property
@@ -93,13 +101,16 @@ class AudioFeatures:
         out += [f"ild_direct_g{g}" for g in range(self.groups)]
         out += ["ild_onset_db", "direct_l", "direct_r", "peak_db", "rms_db", "centroid_log_hz",
                 "onset_s"]
+        bins = [f"{a:g}_{b:g}ms" for a, b in zip(self.echo_bins_ms[:-1], self.echo_bins_ms[1:])]
+        out += [f"cep_{ear}_{b}" for ear in "lr" for b in bins + ["peak"]]
+        out += [f"ac_{b}" for b in bins]
         return tuple(out)
 
     @cached_property
     def spatial(self) -> np.ndarray:
         """Indices of the entries that tell where the fall was (the ears' differences, the
         direct sound's share, the level, the onset): what the place model learns from."""
-        keep = ("ild", "itd_", "gcc_", "direct_", "peak_db", "rms_db", "onset_s")
+        keep = ("ild", "itd_", "gcc_", "direct_", "peak_db", "rms_db", "onset_s", "cep_", "ac_")
         return np.array([i for i, n in enumerate(self.names) if n.startswith(keep)])
 
     @cached_property
@@ -191,9 +202,37 @@ class AudioFeatures:
         centroid = float((p * freqs).sum() / (p.sum() + EPS))
         feats.append(np.array([*itds, *peaks, *onset_itds, *ild_direct, ild_onset, *direct, peak_db,
                                rms_db, math.log10(centroid + 1.0), first / fs]))
+        feats.append(self._echoes(x, max(0, first - int(0.0005 * fs))))
         out = np.concatenate(feats).astype(np.float32)
         assert len(out) == len(self.names)
         return out
+
+
+    def _echoes(self, x: np.ndarray, s0: int) -> np.ndarray:
+        """Echoes in the first 40 ms from ``s0``: each ear's power cepstrum's largest value per
+        quefrency bin and the quefrency (ms) of its largest from 1 ms on (a reflection delayed
+        by tau puts a peak at tau), and the two ears' sum's normalised autocorrelation's
+        largest value per lag bin."""
+        fs = self.sample_rate
+        seg = x[:, s0:s0 + int(0.04 * fs)]
+        edges = np.asarray(self.echo_bins_ms)
+        out = []
+        nfft = 4096
+        q = np.arange(nfft) / fs * 1e3
+        for ear in seg:
+            spec = np.fft.rfft(ear * np.hanning(len(ear)), nfft) if len(ear) else np.zeros(1)
+            cep = np.fft.irfft(np.log(np.abs(spec) ** 2 + EPS), nfft)
+            out += [float(cep[(q >= a) & (q < b)].max()) for a, b in zip(edges[:-1], edges[1:])]
+            k = (q >= 1.0) & (q < edges[-1])
+            out.append(float(q[k][np.argmax(cep[k])]))
+        both = seg.sum(axis=0)
+        ac = np.correlate(both, both, "full")[len(both) - 1:] if len(both) else np.zeros(1)
+        ac = ac / (ac[0] + EPS)
+        lags = np.arange(len(ac)) / fs * 1e3
+        for a, b in zip(edges[:-1], edges[1:]):
+            sel = ac[(lags >= a) & (lags < b)]
+            out.append(float(sel.max()) if sel.size else 0.0)
+        return np.asarray(out)
 
 
 def relative_place(row: dict) -> tuple[float, float]:

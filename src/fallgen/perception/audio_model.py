@@ -5,7 +5,8 @@ Trained on a build's train split, scored on another split (``fallgen audio-model
 ``eval``). The features are :class:`~fallgen.perception.audio_features.AudioFeatures`; the
 models scikit-learn's extremely randomised trees (Geurts, Ernst & Wehenkel 2006): a classifier
 each for the category and the material on every feature, a regressor for (cos azimuth, sin
-azimuth, log distance) together on the spatial ones (``AudioFeatures.spatial``). Seeded, and
+azimuth) together on the spatial ones (``AudioFeatures.spatial``) and one for the log distance
+on every feature (the object's kind tells how loud it fell, the echoes how close). Seeded, and
 deterministic for a seed on a given machine and library version (trees are grown on one
 thread).
 
@@ -116,7 +117,10 @@ class AudioModel:
     features: AudioFeatures
     category_model: object
     material_model: object
+    #: (cos azimuth, sin azimuth) from the spatial features
     place_model: object
+    #: log distance from every feature (what the object is tells how loud it was)
+    distance_model: object
     manifest_sha256: str = ""
     n_train: int = 0
     #: median error (m) of the position on the training set's out-of-bag predictions: the
@@ -146,26 +150,28 @@ class AudioModel:
                       max_features="sqrt")
         cat = ExtraTreesClassifier(**common).fit(X, [r["category"] for r in rows])
         mat = ExtraTreesClassifier(**common).fit(X, [r["audio_material"] for r in rows])
-        reg = ExtraTreesRegressor(**{**common, "max_features": 0.5, "bootstrap": len(rows) > 2,
-                                     "oob_score": len(rows) > 2})
-        reg.fit(X[:, features.spatial], Y)
+        bag = {**common, "max_features": 0.5, "bootstrap": len(rows) > 2,
+               "oob_score": len(rows) > 2}
+        reg = ExtraTreesRegressor(**bag).fit(X[:, features.spatial], Y[:, :2])
+        dist = ExtraTreesRegressor(**bag).fit(X, Y[:, 2])
         err = 1.0
-        if len(rows) > 2 and hasattr(reg, "oob_prediction_"):
-            oob = reg.oob_prediction_
+        if len(rows) > 2 and hasattr(reg, "oob_prediction_") \
+                and hasattr(dist, "oob_prediction_"):
+            oob = np.column_stack([reg.oob_prediction_, dist.oob_prediction_])
             ok = np.isfinite(oob).all(axis=1)
             if ok.any():
                 est = _positions(oob[ok])
                 true = _positions(Y[ok])
                 err = float(np.median(np.linalg.norm(est - true, axis=1)))
-        return AudioModel(features, cat, mat, reg, _manifest_sha256(ds.root), len(rows), err,
-                          {"seed": seed, "trees": trees})
+        return AudioModel(features, cat, mat, reg, dist, _manifest_sha256(ds.root), len(rows),
+                          err, {"seed": seed, "trees": trees})
 
     def predict_matrix(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(category probabilities (N, C), material probabilities (N, M), places (N, 2):
         azimuth rad, distance m)."""
         Y = self.place_model.predict(X[:, self.features.spatial])
         return (self.category_model.predict_proba(X), self.material_model.predict_proba(X),
-                np.column_stack([azimuth(Y), np.exp(Y[:, 2])]))
+                np.column_stack([azimuth(Y), np.exp(self.distance_model.predict(X))]))
 
     def predict(self, audio: np.ndarray) -> AudioPrediction:
         cp, mp, place = self.predict_matrix(self.features.extract(audio)[None, :])
@@ -185,6 +191,7 @@ class AudioModel:
         joblib.dump({"format": FORMAT, "features": self.features.to_dict(),
                      "category_model": self.category_model,
                      "material_model": self.material_model, "place_model": self.place_model,
+                     "distance_model": self.distance_model,
                      "manifest_sha256": self.manifest_sha256, "n_train": self.n_train,
                      "position_error_m": self.position_error_m, "meta": self.meta}, buf)
         write_bytes(Path(path), buf.getvalue())
@@ -210,9 +217,14 @@ class AudioModel:
             raise InputError(path, "features.version", f"made with feature version "
                              f"{features.version}; this fallgen extracts version "
                              f"{AudioFeatures().version}: train it again")
+        missing = [k for k in ("category_model", "material_model", "place_model",
+                               "distance_model") if k not in d]
+        if missing:
+            raise InputError(path, missing[0], "missing: train it again")
         return AudioModel(features, d["category_model"], d["material_model"], d["place_model"],
-                          d.get("manifest_sha256", ""), int(d.get("n_train", 0)),
-                          float(d.get("position_error_m", 1.0)), dict(d.get("meta", {})))
+                          d["distance_model"], d.get("manifest_sha256", ""),
+                          int(d.get("n_train", 0)), float(d.get("position_error_m", 1.0)),
+                          dict(d.get("meta", {})))
 
 
 def _xy(place: np.ndarray) -> np.ndarray:
@@ -221,8 +233,8 @@ def _xy(place: np.ndarray) -> np.ndarray:
 
 
 def azimuth(Y: np.ndarray) -> np.ndarray:
-    """Azimuths (rad) of the place model's (N, 3) predictions (cos azimuth, sin azimuth, log
-    distance): the lateral angle from the sine, the side (front or back) from the cosine's
+    """Azimuths (rad) of the place model's (N, 2+) predictions (cos azimuth, sin azimuth, ...):
+    the lateral angle from the sine, the side (front or back) from the cosine's
     sign. Two ears tell the lateral angle well and front from back poorly (a spherical head
     not at all): where the trees are unsure of the side, their cosine averages toward 0, and
     ``atan2(sin, cos)`` would swing every such estimate out to +-90 degrees, however well the
