@@ -131,6 +131,13 @@ def test_table_on_the_tiny_build(tiny_dataset, tmp_path, cli):
                "1") == 0
     assert {p: p.stat().st_mtime_ns for p in (out / "rows").rglob("summary.json")} == before
     assert json.loads((out / "table.json").read_text())["results"] == data["results"]
+    # a different audio model (more trees) is made again, and the rows that use it run again
+    assert cli("table", str(tiny_dataset), "-o", str(out), "--trees", "11", "--workers",
+               "1") == 0
+    after = {p: p.stat().st_mtime_ns for p in (out / "rows").rglob("summary.json")}
+    for p, t in after.items():
+        uses_audio = "audio" in json.loads(p.read_text())["agent"]
+        assert (t != before[p]) == uses_audio, p
     # the subsample: seeded, sorted, a subset; everything when asked for as many or more
     ids = list(range(100, 160))
     a = subsample(ids, 10, 0, 1)

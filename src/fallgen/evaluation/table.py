@@ -216,12 +216,13 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
             log(f"{row.key}: not run (no {row.episodes} test episode or no model)")
             continue
         kwargs = {"audio_model": str(models[row.model])} if row.model else {}
+        model_sha = _file_sha256(models[row.model]) if row.model else None
         ref = AgentRef("baseline", row.name, oracles=row.oracles, kwargs=kwargs)
         row_dir = out / ROWS / row.key
         old = _read_json(row_dir / "summary.json")
         if old is not None and old.get("manifest_sha256") == sha and \
                 old.get("agent") == ref.describe() and old.get("seed") == seed and \
-                old.get("episode_ids") == ids:
+                old.get("episode_ids") == ids and old.get("audio_model_sha256") == model_sha:
             run.results[row.key] = old
             run.timings[row.key] = float(old.get("wall_s", 0.0))
             log(f"{row.key}: kept ({old['n']} episodes)")
@@ -230,7 +231,8 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
         ev = evaluate(ds.root, ref, split=None, episode_ids=ids, workers=workers, seed=seed,
                       data_dir=data_dir, progress=_step(progress, row.key, len(ids)))
         wall = time.perf_counter() - t0
-        ev.summary.update({"episode_ids": ids, "wall_s": round(wall, 1)})
+        ev.summary.update({"episode_ids": ids, "wall_s": round(wall, 1),
+                           "audio_model_sha256": model_sha})
         write(ev, row_dir)
         run.results[row.key] = ev.summary
         run.timings[row.key] = wall
@@ -242,6 +244,12 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
         indent=1, sort_keys=True) + "\n")
     write_text(out / "table.md", markdown(run))
     return run
+
+
+def _file_sha256(path: Path) -> str:
+    import hashlib
+
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
 def _step(progress, name: str, total: int):
