@@ -77,7 +77,9 @@ class Zone:
     ``volume`` is the settle volume (the object's centre of mass must end inside it); ``drop`` is
     the region starting poses are drawn from. ``open_above`` says the drop region reaches up to
     the ceiling (a rehearsal clamps its configured drop heights into it); otherwise it is a cavity
-    (under a table, between shelf boards) and drops start inside it.
+    (between shelf boards, under a table) and drops start inside it when it is tall enough for
+    a real fall, beside it otherwise; under furniture they always start beside it, above the
+    cover (:func:`fallgen.physics.drop.run_trial`).
     """
 
     id: str
