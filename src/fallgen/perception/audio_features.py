@@ -20,7 +20,7 @@ holds the settings and names every entry):
 
 The onset is the first frame whose energy reaches 1 % of the loudest frame's, refined to the
 first sample there that reaches a tenth of the peak. Pure numpy; a clip of 2 x 88200 samples
-takes ~3 ms.
+takes ~12 ms on the 2-core dev VM.
 """
 
 from __future__ import annotations
