@@ -60,7 +60,7 @@ def _open(dataset: Path):
 
 def _agent_ref(agent: str | None, agent_kwargs: str | None, actions: Path | None,
                baseline: str | None, oracles: str | None, audio_model: Path | None = None,
-               audio_top_k: int = 1, dataset: Path | None = None):
+               audio_top_k: int = 1, ds=None):
     import json
 
     from fallgen.agents import BASELINES, ORACLES
@@ -111,19 +111,18 @@ def _agent_ref(agent: str | None, agent_kwargs: str | None, actions: Path | None
         chosen = tuple(o for o in ORACLES if o in chosen)
     kwargs = {}
     if audio_model is not None:
-        _check_audio_model(audio_model, dataset)
+        _check_audio_model(audio_model, ds)
         kwargs = {"audio_model": str(audio_model), "audio_top_k": int(audio_top_k)}
     return AgentRef("baseline", baseline, oracles=chosen, kwargs=kwargs)
 
 
-def _check_audio_model(path: Path, dataset: Path | None) -> None:
+def _check_audio_model(path: Path, ds) -> None:
     """Load the model once here (a one-line error for a bad file, or for a dataset whose clips
-    it was not made for) rather than in every worker."""
+    it was not made for: ``ds``, an open dataset) rather than in every worker."""
     from fallgen.perception.audio_model import AudioModel, check_features
 
     model = AudioModel.load(path)
-    if dataset is not None:
-        ds = _open(dataset)
+    if ds is not None:
         rows = ds.rows(ds.splits[0]) if ds.splits else []
         if rows:
             check_features(ds, rows[:1], model.features, path)
@@ -187,10 +186,10 @@ def register(app: typer.Typer, console: Console) -> None:
         from fallgen.evaluation.evaluate import evaluate as run, write
         from fallgen.evaluation.scores import PAPER_TABLE1, PAPER_TABLE2
 
-        _open(dataset)
+        ds = _open(dataset)
         ids = parse_ids(episodes)
         ref = _agent_ref(agent, agent_kwargs, actions, baseline, oracles, audio_model,
-                         audio_top_k, dataset)
+                         audio_top_k, ds)
         if reward not in ("paper", "geodesic"):
             raise InputError("<command line>", "--reward", f"{reward!r}: paper or geodesic")
         cats = [c.strip() for c in category.split(",") if c.strip()] if category else None

@@ -28,6 +28,12 @@ def sha256(path: Path) -> str:
     return h.hexdigest()
 
 
+def manifest_sha256(root: Path) -> str | None:
+    """sha256 of ``root``'s ``manifest.json`` (None when it has none: an unfinished build)."""
+    path = Path(root) / MANIFEST
+    return sha256(path) if path.is_file() else None
+
+
 def listed_files(root: Path) -> list[Path]:
     files = [p for d in LISTED for p in (root / d).glob("*")
              if p.is_file() and not p.name.endswith(".tmp")]

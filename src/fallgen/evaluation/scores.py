@@ -10,7 +10,6 @@ intervals), which suits measures bounded in [0, 1] and piled up at 0 and 1.
 
 from __future__ import annotations
 
-import hashlib
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -78,8 +77,9 @@ def summarize(records: Sequence[dict], meta: dict[str, Any]) -> dict[str, Any]:
 
 def manifest_hash(dataset: Path) -> str | None:
     """sha256 of the dataset's ``manifest.json`` (None when it has none: an unfinished build)."""
-    p = Path(dataset) / "manifest.json"
-    return hashlib.sha256(p.read_bytes()).hexdigest() if p.is_file() else None
+    from fallgen.dataset.manifest import manifest_sha256
+
+    return manifest_sha256(dataset)
 
 
 def table_rows(summary: dict[str, Any], label: str) -> list[tuple[str, str, str, str]]:

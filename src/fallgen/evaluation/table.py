@@ -31,7 +31,8 @@ from typing import Any
 import numpy as np
 
 from fallgen.evaluation.runner import AgentRef
-from fallgen.evaluation.scores import PAPER_TABLE1, PAPER_TABLE2, manifest_hash
+from fallgen.evaluation.scores import PAPER_TABLE1, PAPER_TABLE2, manifest_hash, \
+    markdown_table, table_rows
 
 ROWS = "rows"
 MODELS = "models"
@@ -107,6 +108,11 @@ def subsample(ids: Sequence[int], n: int, seed: int, salt: int) -> list[int]:
     return sorted(int(i) for i in rng.choice(ids, n, replace=False))
 
 
+def _of_kind(rows: Sequence[dict], kind: str | None) -> np.ndarray:
+    """Which of ``rows`` are of room kind ``kind`` (None: all of them)."""
+    return np.array([kind is None or r["room_kind"] == kind for r in rows], bool)
+
+
 def _read_json(path: Path) -> dict | None:
     try:
         return json.loads(path.read_text())
@@ -123,6 +129,7 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
     module's doc). ``episodes`` / ``cross_episodes``: how many test episodes Table 1's rows /
     each room kind of Table 2 run on (0: all). ``progress(step, done, total)``."""
     from fallgen.atomic import write_text
+    from fallgen.dataset.manifest import sha256 as file_sha256
     from fallgen.dataset.reader import Dataset
     from fallgen.evaluation.evaluate import evaluate, write
     from fallgen.perception.audio_model import AudioModel, check_features, confusion_png, \
@@ -154,12 +161,13 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
     features = dataset_features(ds, train_rows)
     X_train: np.ndarray | None = None
     models: dict[str, Path | None] = {}
+    loaded: dict[str, AudioModel] = {}  # each model once, made or read
     for name, kind in AUDIO_MODELS:
         path = out / MODELS / f"audio-{name}.model"
-        n_kind = sum(kind is None or r["room_kind"] == kind for r in train_rows)
-        if n_kind < 2:
+        keep = _of_kind(train_rows, kind)
+        if keep.sum() < 2:
             models[name] = None
-            log(f"audio model {name}: {n_kind} train episode(s) of {kind} rooms: none made")
+            log(f"audio model {name}: {keep.sum()} train episode(s) of {kind} rooms: none made")
             continue
         models[name] = path
         if path.is_file():
@@ -167,6 +175,7 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
                 m = AudioModel.load(path)
                 if m.manifest_sha256 == sha and m.meta.get("trees") == trees \
                         and m.meta.get("seed") == seed:
+                    loaded[name] = m
                     log(f"audio model {name}: kept {path}")
                     continue
             except Exception:  # noqa: BLE001 - a stale or broken file is made again
@@ -174,11 +183,11 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
         if X_train is None:
             X_train = feature_matrix(ds, train_rows, features, _step(progress, "features",
                                                                      len(train_rows)))
-        keep = np.array([kind is None or r["room_kind"] == kind for r in train_rows])
         rows_k = [r for r, k in zip(train_rows, keep) if k]
         m = AudioModel.train(ds, rows_k, seed=seed, trees=trees, X=X_train[keep])
         m.meta.update({"split": "train", "room_kind": kind, "dataset": str(ds.root)})
         m.save(path)
+        loaded[name] = m
         log(f"audio model {name}: {len(rows_k)} train episodes -> {path}")
     run.timings["audio models"] = time.perf_counter() - t0
 
@@ -187,15 +196,16 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
     world = load_world(data_dir)
     scored = (("all", "test", None), ("all", "kitchen", "kitchen"), ("all", "study", "study"),
               ("kitchen", "study", "study"), ("study", "kitchen", "kitchen"))
+    for name, m in loaded.items():
+        check_features(ds, test_rows, m.features, models[name])
     X_test = None
     for name, where, kind in scored:
         key = f"{name}_on_{where}"
-        keep = np.array([kind is None or r["room_kind"] == kind for r in test_rows])
+        keep = _of_kind(test_rows, kind)
         rows_k = [r for r, k in zip(test_rows, keep) if k]
-        if models[name] is None or not rows_k:
+        if name not in loaded or not rows_k:
             continue
-        m = AudioModel.load(models[name])
-        check_features(ds, test_rows, m.features, models[name])
+        m = loaded[name]
         if X_test is None:
             X_test = feature_matrix(ds, test_rows, m.features,
                                     _step(progress, "test features", len(test_rows)))
@@ -216,7 +226,7 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
             log(f"{row.key}: not run (no {row.episodes} test episode or no model)")
             continue
         kwargs = {"audio_model": str(models[row.model])} if row.model else {}
-        model_sha = _file_sha256(models[row.model]) if row.model else None
+        model_sha = file_sha256(models[row.model]) if row.model else None
         ref = AgentRef("baseline", row.name, oracles=row.oracles, kwargs=kwargs)
         row_dir = out / ROWS / row.key
         old = _read_json(row_dir / "summary.json")
@@ -246,12 +256,6 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
     return run
 
 
-def _file_sha256(path: Path) -> str:
-    import hashlib
-
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
-
-
 def _step(progress, name: str, total: int):
     if progress is None:
         return None
@@ -271,11 +275,6 @@ def _brief(summary: dict) -> dict:
     return {k: summary[k] for k in keys if k in summary}
 
 
-def _cell(s: dict, m: str) -> str:
-    lo, hi = s["ci95"][m]
-    return f"{s[m]:.2f} [{lo:.2f}, {hi:.2f}]"
-
-
 def _paper(p: tuple[float, float, float] | None) -> str:
     return " / ".join(f"{v:.2f}" for v in p) if p else "-"
 
@@ -290,6 +289,14 @@ def _minutes(s: float) -> str:
     return f"{s / 60:.1f} min"
 
 
+def _result(run: TableRun, row: Row) -> tuple[str, ...]:
+    """A row's cells: method, SR / SPL / SNA with their intervals, the paper's, episodes,
+    time."""
+    s = run.results[row.key]
+    return (*table_rows(s, row.label)[0], _paper(row.paper), str(s["n"]),
+            _minutes(run.timings.get(row.key, 0.0)))
+
+
 def markdown(run: TableRun) -> str:
     """``table.md``: both tables, the audio module's scores and the timings."""
     sel = run.selection
@@ -299,36 +306,30 @@ def markdown(run: TableRun) -> str:
              + _used("Table 1", sel["table1"], sel["test_split"], "test episodes") + " "
              + f"Table 2: {sel['kitchen']} kitchen and {sel['study']} study-room test "
              "episodes (seeded; `--cross-episodes`).", ""]
-    lines += ["## Table 1 (test split)", "",
-              "| Method | SR [95 % CI] | SPL | SNA | paper SR / SPL / SNA | episodes | time |",
-              "|---|---|---|---|---|---|---|"]
-    for row in rows_table1():
-        s = run.results.get(row.key)
-        if s is None:
-            continue
-        lines.append(f"| {row.label} | {_cell(s, 'success')} | {_cell(s, 'spl')} | "
-                     f"{_cell(s, 'sna')} | {_paper(row.paper)} | {s['n']} | "
-                     f"{_minutes(run.timings.get(row.key, 0.0))} |")
+    lines += ["## Table 1 (test split)", "", markdown_table(
+        [_result(run, row) for row in rows_table1() if row.key in run.results],
+        ("Method", "SR [95 % CI]", "SPL", "SNA", "paper SR / SPL / SNA", "episodes", "time")
+    ).rstrip("\n")]
     lines += ["", "The paper's Modular Planning row (0.41 / 0.27 / 0.25) used a learned "
               "segmentation as well as its audio model; ours has no learned detector, so its "
               "nearest row is `Modular + audio + GT segmentation` (the paper's 0.47).", "",
               "## Table 2 (cross-scene: the audio module learned on one room kind, tested on "
-              "the other; modular agent + audio + GT segmentation)", "",
-              "| Test rooms, audio module | SR [95 % CI] | SPL | SNA | paper (modular) | "
-              "episodes | time |", "|---|---|---|---|---|---|---|"]
+              "the other; modular agent + audio + GT segmentation)", ""]
     same = run.results.get("modular_audio_seg", {}).get("by_room_kind", {})
+    table2 = []
     for row in rows_table2():
-        s = run.results.get(row.key)
-        if s is None:
+        if row.key not in run.results:
             continue
-        lines.append(f"| {row.label} | {_cell(s, 'success')} | {_cell(s, 'spl')} | "
-                     f"{_cell(s, 'sna')} | {_paper(row.paper)} | {s['n']} | "
-                     f"{_minutes(run.timings.get(row.key, 0.0))} |")
+        table2.append(_result(run, row))
         ref = same.get(row.episodes)
         if ref:
-            lines.append(f"| {row.episodes} rooms, audio learned on both kinds (Table 1's "
-                         f"row, its {row.episodes} episodes) | {ref['success']:.2f} | "
-                         f"{ref['spl']:.2f} | {ref['sna']:.2f} | - | {ref['n']} | - |")
+            table2.append((f"{row.episodes} rooms, audio learned on both kinds (Table 1's "
+                           f"row, its {row.episodes} episodes)", *(f"{ref[m]:.2f}" for m in
+                                                                   ("success", "spl", "sna")),
+                           "-", str(ref["n"]), "-"))
+    lines.append(markdown_table(table2, ("Test rooms, audio module", "SR [95 % CI]", "SPL",
+                                         "SNA", "paper (modular)", "episodes", "time")
+                                ).rstrip("\n"))
     lines += ["", "## The audio module on the test episodes", "",
               "| model on episodes | category top-1 / top-5 | material | azimuth err (deg) | "
               "lateral err (deg) | distance rank corr. | position err (m) | "

@@ -19,7 +19,6 @@ centre as where the fall was.
 
 from __future__ import annotations
 
-import hashlib
 import math
 from collections import Counter, defaultdict
 from collections.abc import Callable, Sequence
@@ -30,16 +29,12 @@ import h5py
 import numpy as np
 
 from fallgen.errors import InputError
+from fallgen.dataset.manifest import manifest_sha256
 from fallgen.perception.audio_features import AudioFeatures, relative_place
 
 FORMAT = "fallgen-audio-model/1"
 #: Distance bins (m) the scores are broken down by.
 DISTANCE_BINS_M = (0.0, 2.5, 3.5, 4.5, 100.0)
-
-
-def _manifest_sha256(root: Path) -> str:
-    path = Path(root) / "manifest.json"
-    return hashlib.sha256(path.read_bytes()).hexdigest() if path.is_file() else ""
 
 
 def dataset_features(ds, rows: Sequence[dict]) -> AudioFeatures:
@@ -163,7 +158,7 @@ class AudioModel:
                 est = _positions(oob[ok])
                 true = _positions(Y[ok])
                 err = float(np.median(np.linalg.norm(est - true, axis=1)))
-        return AudioModel(features, cat, mat, reg, dist, _manifest_sha256(ds.root), len(rows),
+        return AudioModel(features, cat, mat, reg, dist, manifest_sha256(ds.root) or "", len(rows),
                           err, {"seed": seed, "trees": trees})
 
     def predict_matrix(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
