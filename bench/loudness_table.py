@@ -1,8 +1,9 @@
 """Loudness calibration: the dry sound (free field, 1 m, no room) of reference drops onto a
-parquet, a tiled and a floorboard floor and a rug on tiles, as the dataset renders them (the
-rehearsal's contact recorder, then :class:`fallgen.audio.fall.FallRenderer`). Prints a Markdown
-table (peak and loudest 125 ms Leq, dB SPL re 20 uPa, and the share of the fall's energy
-radiated).
+parquet, a tiled and a floorboard floor, a rug on tiles and a thin carpet, as the dataset
+renders them (the rehearsal's contact recorder, then :class:`fallgen.audio.fall.FallRenderer`).
+Prints two Markdown tables: the floors under the ISO tapping machine against building
+acoustics' measurements (:mod:`fallgen.audio.floors`), then the drops (peak and loudest 125 ms
+Leq, dB SPL re 20 uPa, and the share of the fall's energy radiated).
 
     python bench/loudness_table.py [--heights 0.75 1.5]
 """
@@ -20,6 +21,7 @@ REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO / "src"))
 
 from fallgen.audio.fall import AudioSettings, FallRenderer  # noqa: E402
+from fallgen.audio.floors import check_floor  # noqa: E402
 from fallgen.audio.impact import radiated_energy_j  # noqa: E402
 from fallgen.audio.mix import levels_db_spl  # noqa: E402
 from fallgen.physics.drop import record_drop  # noqa: E402
@@ -40,7 +42,8 @@ OBJECTS = [
 FLOORS = [("wood parquet", "kitchen_galley-l1-m1", False),
           ("ceramic tile", "kitchen_galley-l1-m2", False),
           ("floorboards", "kitchen_island-l1-m2", False),
-          ("rug on tiles", "kitchen_galley-l1-m2", True)]
+          ("rug on tiles", "kitchen_galley-l1-m2", True),
+          ("thin carpet", "study_loft-l1-m2", False)]
 
 
 def _rug_spot(v) -> tuple[float, float]:
@@ -73,11 +76,34 @@ def drop(world, vid: str, category: str, variant: str, material: str, height: fl
     return record_drop(world, vid, z, ObjectSpec(category, variant, material, 1.0), pos, quat,
                        steps, event_id="cal")
 
+def floors_table(world) -> None:
+    """Every floor surface under the ISO 10140-5 tapping machine: L_n,w (ISO 717-2) beside EN
+    ISO 12354-2's bare-floor law, and a covering's Delta L_w beside its measured range."""
+    print("| floor | structure (m'') | L_n,w | bare structure L_n,w | EN ISO 12354-2 bare "
+          "| Delta L_w | measured Delta L_w |")
+    print("|---|---|---|---|---|---|---|")
+    for s in world.materials.surfaces.values():
+        if "floor" not in s.uses:
+            continue
+        c = check_floor(s, world.materials)
+
+        def f(x, fmt="{:.0f}"):
+            return "-" if x is None else fmt.format(x)
+
+        rng = s.impact_improvement_db
+        print(f"| {s.name} | {s.structure_thickness_m * 1000:.0f} mm {s.structure_material} "
+              f"({c.mass_per_area:.0f} kg/m2) | {c.rating_db} | {f(c.bare_rating_db)} | "
+              f"{f(c.bare_reference_db, '{:.1f}')} | {f(c.improvement_db)} | "
+              f"{'-' if rng is None else f'{rng[0]:g}-{rng[1]:g}'} |", flush=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--heights", type=float, nargs="+", default=[0.75, 1.5])
     args = ap.parse_args()
     world = load_world(REPO)
+    floors_table(world)
+    print()
     renderer = FallRenderer(world, AudioSettings())
     print("| object (mass) | floor | drop | peak dB SPL | Leq 125 ms dB SPL | radiated / lost |")
     print("|---|---|---|---|---|---|")

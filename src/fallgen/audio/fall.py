@@ -49,8 +49,9 @@ import numpy as np
 import trimesh
 
 from fallgen.audio.coupling import coupled_impact
+from fallgen.audio.floors import MOUNTED_LOSS_FACTOR, surface_plate
 from fallgen.audio.hertz import hertz_impact, plate_contact
-from fallgen.audio.impact import C_AIR, ModalHit, SoundingBody, plate_pressure, render
+from fallgen.audio.impact import ModalHit, SoundingBody, plate_pressure, render
 from fallgen.audio.mix import DrySource
 from fallgen.audio.modes import ModalModel, ModalSettings, modal_model, round_nu
 from fallgen.audio.shells import plate_model
@@ -63,7 +64,6 @@ from fallgen.world.scene import WALL_OWNERS, Scene, build_scene
 from fallgen.world.shell import ThinShell
 
 PATCH_M = 0.6
-MOUNTED_LOSS_FACTOR = 0.05
 #: Where a floor or wall patch is struck, as a fraction of its side from the centre (an
 #: off-centre point excites odd and even modes alike).
 PATCH_HIT = (0.21, 0.13)
@@ -257,28 +257,22 @@ class FallRenderer:
         an impact gives the surface (its modes in the coupled contact), hit through the
         finish; what the surface radiates is the infinite plate's forced sound
         (:func:`~fallgen.audio.impact.plate_pressure`)."""
-        struct = self.world.materials.object(surface.structure_material)
-        t = surface.structure_thickness_m
-        r = surface.structure_stiffness_ratio
-        key = ("plate", PATCH_M, t, round_nu(struct.poisson_ratio), r)
+        plate = surface_plate(surface, self.world.materials)
+        struct, t = plate.structure, surface.structure_thickness_m
+        key = ("plate", PATCH_M, t, round_nu(struct.poisson_ratio), plate.stiffness_ratio)
         ref = self._plates.get(key)
         if ref is None:  # closed form, ~1 MB, a handful per build: kept
             ref = self._plates[key] = plate_model(PATCH_M, PATCH_M, t, struct.poisson_ratio,
-                                                  self.s.modal.n_modes, stiffness_ratio=r)
+                                                  self.s.modal.n_modes,
+                                                  stiffness_ratio=plate.stiffness_ratio)
         vol = PATCH_M * PATCH_M * t
         body = SoundingBody(ref.scaled(struct.youngs_modulus_pa, struct.density_kg_m3, 1.0),
-                            max(struct.loss_factor, MOUNTED_LOSS_FACTOR),
-                            finish.contact_modulus_pa, finish.poisson_ratio,
+                            plate.loss_factor, finish.contact_modulus_pa, finish.poisson_ratio,
                             struct.density_kg_m3 * vol, math.inf)
-        m2 = struct.density_kg_m3 * t
-        bending = struct.youngs_modulus_pa * t ** 3 / (12 * (1 - struct.poisson_ratio ** 2))
-        fc = C_AIR ** 2 / (2 * math.pi) * math.sqrt(m2 / bending)
-        # an orthotropic plate's point impedance: 8 sqrt(m'') (D_x D_y)^(1/4) (the isotropic
-        # plate's in coordinates scaled by (D_y / D_x)^(1/4))
         return _Body(body, vol, np.asarray(pos, float), np.asarray(rot, float), finish,
-                     patch=True, free=False, mass_per_area=m2, coincidence_hz=fc,
-                     stiffness_ratio=r,
-                     point_impedance_n_s_m=8.0 * math.sqrt(bending * m2) * r ** 0.25)
+                     patch=True, free=False, mass_per_area=plate.mass_per_area,
+                     coincidence_hz=plate.coincidence_hz, stiffness_ratio=plate.stiffness_ratio,
+                     point_impedance_n_s_m=plate.point_impedance_n_s_m)
 
     def energy_lost_j(self, event: FallEvent) -> float:
         """The mechanical energy the fall loses, all of it in its contacts: the drop of the

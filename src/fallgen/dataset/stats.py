@@ -147,7 +147,53 @@ def stats(root: str | Path) -> dict:
                        "skip_rate": skipped_kind[k] / tried_kind[k] if tried_kind[k] else None}
                    for k in sorted(set(rehearsed) | set(used))}
     out["goals"] = goals(rows)
+    out["floors"] = floor_checks({r["room_variant"] for r in rows})
+    out["goals"].update(floor_goals(out["floors"]))
     return out
+
+
+def floor_checks(variants) -> dict[str, dict]:
+    """The ISO tapping machine on the floors of these room variants, as this code renders a
+    hit on them (:func:`fallgen.audio.floors.check_floor`): what a measurement can check of
+    the floors' impact sound. The dataset keeps no copy of the materials, so these are the
+    present ones (variants the present world lacks are left out)."""
+    from dataclasses import asdict
+
+    from fallgen.audio.floors import check_floor
+    from fallgen.world.library import load_world
+
+    world = load_world()
+    known = {v.id: v for v in world.variants()}
+    names = sorted({known[v].surfaces["floor"].name for v in variants if v in known})
+    out = {}
+    for n in names:
+        c = check_floor(world.materials.surface(n), world.materials)
+        out[n] = {**asdict(c), "ok": c.ok}
+    return out
+
+
+def floor_goals(floors: dict[str, dict]) -> dict:
+    """Two goals from :func:`floor_checks`: bare homogeneous floors against EN ISO 12354-2,
+    and coverings' improvement against their measured ranges."""
+    from fallgen.audio.floors import BARE_FLOOR_TOLERANCE_DB
+
+    g = {}
+    bare = {k: c["bare_rating_db"] - c["bare_reference_db"] for k, c in floors.items()
+            if c["bare_reference_db"] is not None}
+    if bare:
+        g["floor_bare_vs_en12354"] = {
+            "value": bare, "bound": f"within {BARE_FLOOR_TOLERANCE_DB:g} dB (L_n,w, tapping "
+                                    "machine)",
+            "ok": all(abs(x) <= BARE_FLOOR_TOLERANCE_DB for x in bare.values())}
+    cover = {k: c for k, c in floors.items() if c["improvement_range_db"] is not None}
+    if cover:
+        g["floor_covering_delta_lw"] = {
+            "value": {k: c["improvement_db"] for k, c in cover.items()},
+            "bound": ", ".join(f"{k} {c['improvement_range_db'][0]:g}-"
+                               f"{c['improvement_range_db'][1]:g}" for k, c in cover.items()),
+            "ok": all(c["improvement_range_db"][0] <= c["improvement_db"]
+                      <= c["improvement_range_db"][1] for c in cover.values())}
+    return g
 
 
 def goals(rows: list[dict]) -> dict:
@@ -218,4 +264,4 @@ def goals(rows: list[dict]) -> dict:
     return g
 
 
-__all__ = ["stats", "goals", "GOALS"]
+__all__ = ["stats", "goals", "GOALS", "floor_checks", "floor_goals"]

@@ -96,6 +96,7 @@ _SURFACE_FIELDS = (
     "structure_material",
     "structure_thickness_m",
     "structure_stiffness_ratio",
+    "impact_improvement_db",
     "friction_sliding",
     "uses",
     "rgba",
@@ -186,6 +187,10 @@ class SurfaceMaterial:
     structure_stiffness_ratio: float = 1.0
     #: how the surface looks (its colour tints it); None: flat colour
     texture: TextureSpec | None = None
+    #: a floor covering's measured weighted impact sound improvement Delta L_w (dB, ISO
+    #: 10140-3 rated per ISO 717-2), low and high, that the rendered hits on it must reproduce
+    #: (:func:`fallgen.audio.floors.covering_improvement`); None: not a covering, or no data
+    impact_improvement_db: tuple[float, float] | None = None
 
 
 @dataclass(frozen=True)
@@ -357,6 +362,9 @@ def parse_surface_materials(f: Fields, objects: Mapping[str, ObjectMaterial]) ->
             rgba=_rgba(s),
             texture=parse_texture(s) if "texture" in s else None,
             sources=_sources(s),
+            impact_improvement_db=s.floats("impact_improvement_db", n=2, lo=0.0, hi=60.0,
+                                           increasing=True)
+            if "impact_improvement_db" in s else None,
         )
         s.reject_unknown(_SURFACE_FIELDS)
     return out
