@@ -53,7 +53,7 @@ bench: setup
 	$(PY) bench/appearance.py | tee build/bench-appearance.json
 	$(PY) bench/report.py build
 
-## loudness: the dry peak and Leq at 1 m of reference drops onto a parquet and a tiled floor
+## loudness: the floors under the ISO tapping machine (vs EN ISO 12354-2 and measured coverings), then the dry peak and Leq at 1 m of reference drops onto five floors
 ## (the README's calibration table), ~2 min.
 loudness: setup
 	$(PY) bench/loudness_table.py
