@@ -121,22 +121,49 @@ class ImpactLevels:
     hammer_contact_s: float
 
 
+def hit_pressure(plate: SurfacePlate, impactor: ObjectMaterial, mass_kg: float,
+                 radius_m: float, speed_mps: float, sample_rate: int = 44100
+                 ) -> tuple[np.ndarray, float]:
+    """One rigid impactor's hit on the surface (:func:`floor_hit`): the surface's dry pressure
+    at 1 m (one second, :func:`~fallgen.audio.impact.plate_pressure`) and the kinetic energy
+    the hit loses, m v^2 (1 - e^2) / 2 (J)."""
+    j, t, e = floor_hit(plate, impactor, mass_kg, radius_m, speed_mps)
+    p = plate_pressure(plate.mass_per_area, [ModalHit(0.01, np.zeros(3), j, t)], sample_rate,
+                       sample_rate, coincidence_hz=plate.coincidence_hz,
+                       loss_factor=plate.loss_factor, stiffness_ratio=plate.stiffness_ratio)
+    return p, 0.5 * mass_kg * speed_mps ** 2 * (1.0 - e * e)
+
+
+#: J per (Pa^2 s) of a surface's dry signal at 1 m, into the room's half space
+_HALF_SPACE = 8 * math.pi / (RHO_AIR * C_AIR)
+
+
+def half_space_energy_j(p: np.ndarray, sample_rate: int) -> np.ndarray:
+    """The energy per third-octave band a surface's dry signal radiates into the room: the dry
+    signal is the free-field monopole whose image makes the plate's pressure, so into the half
+    space it is twice the monopole's, 2 * 4 pi r^2 / (rho c) * int p^2 dt (r = 1 m)."""
+    return _HALF_SPACE * band_energies(p, sample_rate)
+
+
+def radiated_share(plate: SurfacePlate, impactor: ObjectMaterial, mass_kg: float,
+                   radius_m: float, speed_mps: float) -> float:
+    """The share of a rigid impactor's lost energy that the struck surface radiates into the
+    room (the impactor's own sound not included)."""
+    p, lost = hit_pressure(plate, impactor, mass_kg, radius_m, speed_mps)
+    return float(_HALF_SPACE * np.dot(p, p) / 44100 / lost)
+
+
 def tapping_machine(surface: SurfaceMaterial, materials: MaterialLibrary,
                     sample_rate: int = 44100) -> ImpactLevels:
     """The tapping machine on ``surface`` as fallgen renders a hit on it: one hammer blow's
-    plate pressure (:func:`~fallgen.audio.impact.plate_pressure`), its energy into a half
-    space per band, 10 blows a second."""
+    plate pressure (:func:`hit_pressure`), its energy into a half space per band, 10 blows a
+    second."""
     plate = surface_plate(surface, materials)
     steel = materials.object("metal")
     v = math.sqrt(2 * 9.81 * HAMMER_DROP_M)
     j, t, _ = floor_hit(plate, steel, HAMMER_KG, HAMMER_FACE_RADIUS_M, v)
-    p = plate_pressure(plate.mass_per_area, [ModalHit(0.01, np.zeros(3), j, t)], sample_rate,
-                       sample_rate, coincidence_hz=plate.coincidence_hz,
-                       loss_factor=plate.loss_factor, stiffness_ratio=plate.stiffness_ratio)
-    # the dry signal is the free-field monopole whose image makes the plate's pressure: into
-    # the half space it radiates twice the monopole's energy, 2 * 4 pi r^2 / (rho c) int p^2
-    half_space = 8 * math.pi / (RHO_AIR * C_AIR) * band_energies(p, sample_rate)
-    power = HAMMER_RATE_HZ * half_space
+    p, _ = hit_pressure(plate, steel, HAMMER_KG, HAMMER_FACE_RADIUS_M, v, sample_rate)
+    power = HAMMER_RATE_HZ * half_space_energy_j(p, sample_rate)
     ln = 10 * np.log10(np.maximum(power, 1e-30) / 1e-12) + 10 * math.log10(4 / A0_M2)
     return ImpactLevels(BANDS_HZ, ln, impact_rating(ln), j, t)
 
