@@ -76,6 +76,10 @@ def drop(world, vid: str, category: str, variant: str, material: str, height: fl
     return record_drop(world, vid, z, ObjectSpec(category, variant, material, 1.0), pos, quat,
                        steps, event_id="cal")
 
+def _cell(x, fmt: str = "{:.0f}") -> str:
+    return "-" if x is None else fmt.format(x)
+
+
 def floors_table(world) -> None:
     """Every floor surface under the ISO 10140-5 tapping machine: L_n,w (ISO 717-2) beside EN
     ISO 12354-2's bare-floor law, and a covering's Delta L_w beside its measured range."""
@@ -86,14 +90,10 @@ def floors_table(world) -> None:
         if "floor" not in s.uses:
             continue
         c = check_floor(s, world.materials)
-
-        def f(x, fmt="{:.0f}"):
-            return "-" if x is None else fmt.format(x)
-
         rng = s.impact_improvement_db
         print(f"| {s.name} | {s.structure_thickness_m * 1000:.0f} mm {s.structure_material} "
-              f"({c.mass_per_area:.0f} kg/m2) | {c.rating_db} | {f(c.bare_rating_db)} | "
-              f"{f(c.bare_reference_db, '{:.1f}')} | {f(c.improvement_db)} | "
+              f"({c.mass_per_area:.0f} kg/m2) | {c.rating_db} | {_cell(c.bare_rating_db)} | "
+              f"{_cell(c.bare_reference_db, '{:.1f}')} | {_cell(c.improvement_db)} | "
               f"{'-' if rng is None else f'{rng[0]:g}-{rng[1]:g}'} |", flush=True)
 
 

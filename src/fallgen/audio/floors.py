@@ -26,7 +26,7 @@ A0 = 10 m^2), rated per ISO 717-2 (:func:`impact_rating`). References:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -123,15 +123,15 @@ class ImpactLevels:
 
 def hit_pressure(plate: SurfacePlate, impactor: ObjectMaterial, mass_kg: float,
                  radius_m: float, speed_mps: float, sample_rate: int = 44100
-                 ) -> tuple[np.ndarray, float]:
+                 ) -> tuple[np.ndarray, float, float, float]:
     """One rigid impactor's hit on the surface (:func:`floor_hit`): the surface's dry pressure
-    at 1 m (one second, :func:`~fallgen.audio.impact.plate_pressure`) and the kinetic energy
-    the hit loses, m v^2 (1 - e^2) / 2 (J)."""
+    at 1 m (one second, :func:`~fallgen.audio.impact.plate_pressure`), the kinetic energy the
+    hit loses, m v^2 (1 - e^2) / 2 (J), and the hit's impulse (N s) and duration (s)."""
     j, t, e = floor_hit(plate, impactor, mass_kg, radius_m, speed_mps)
     p = plate_pressure(plate.mass_per_area, [ModalHit(0.01, np.zeros(3), j, t)], sample_rate,
                        sample_rate, coincidence_hz=plate.coincidence_hz,
                        loss_factor=plate.loss_factor, stiffness_ratio=plate.stiffness_ratio)
-    return p, 0.5 * mass_kg * speed_mps ** 2 * (1.0 - e * e)
+    return p, 0.5 * mass_kg * speed_mps ** 2 * (1.0 - e * e), j, t
 
 
 #: J per (Pa^2 s) of a surface's dry signal at 1 m, into the room's half space
@@ -146,11 +146,11 @@ def half_space_energy_j(p: np.ndarray, sample_rate: int) -> np.ndarray:
 
 
 def radiated_share(plate: SurfacePlate, impactor: ObjectMaterial, mass_kg: float,
-                   radius_m: float, speed_mps: float) -> float:
+                   radius_m: float, speed_mps: float, sample_rate: int = 44100) -> float:
     """The share of a rigid impactor's lost energy that the struck surface radiates into the
     room (the impactor's own sound not included)."""
-    p, lost = hit_pressure(plate, impactor, mass_kg, radius_m, speed_mps)
-    return float(_HALF_SPACE * np.dot(p, p) / 44100 / lost)
+    p, lost, _, _ = hit_pressure(plate, impactor, mass_kg, radius_m, speed_mps, sample_rate)
+    return float(_HALF_SPACE * np.dot(p, p) / sample_rate / lost)
 
 
 def tapping_machine(surface: SurfaceMaterial, materials: MaterialLibrary,
@@ -161,8 +161,7 @@ def tapping_machine(surface: SurfaceMaterial, materials: MaterialLibrary,
     plate = surface_plate(surface, materials)
     steel = materials.object("metal")
     v = math.sqrt(2 * 9.81 * HAMMER_DROP_M)
-    j, t, _ = floor_hit(plate, steel, HAMMER_KG, HAMMER_FACE_RADIUS_M, v)
-    p, _ = hit_pressure(plate, steel, HAMMER_KG, HAMMER_FACE_RADIUS_M, v, sample_rate)
+    p, _, j, t = hit_pressure(plate, steel, HAMMER_KG, HAMMER_FACE_RADIUS_M, v, sample_rate)
     power = HAMMER_RATE_HZ * half_space_energy_j(p, sample_rate)
     ln = 10 * np.log10(np.maximum(power, 1e-30) / 1e-12) + 10 * math.log10(4 / A0_M2)
     return ImpactLevels(BANDS_HZ, ln, impact_rating(ln), j, t)
@@ -214,15 +213,25 @@ class FloorCheck:
     improvement_range_db: tuple[float, float] | None = None
 
     @property
+    def bare_ok(self) -> bool | None:
+        """The bare structure within :data:`BARE_FLOOR_TOLERANCE_DB` of EN ISO 12354-2 (None:
+        not a homogeneous floor)."""
+        if self.bare_reference_db is None:
+            return None
+        return abs(self.bare_rating_db - self.bare_reference_db) <= BARE_FLOOR_TOLERANCE_DB
+
+    @property
+    def improvement_ok(self) -> bool | None:
+        """The covering's Delta L_w inside its measured range (None: no range on file)."""
+        if self.improvement_range_db is None:
+            return None
+        lo, hi = self.improvement_range_db
+        return lo <= self.improvement_db <= hi
+
+    @property
     def ok(self) -> bool | None:
-        """None: nothing to check it against."""
-        checks = []
-        if self.bare_reference_db is not None:
-            checks.append(abs(self.bare_rating_db - self.bare_reference_db)
-                          <= BARE_FLOOR_TOLERANCE_DB)
-        if self.improvement_range_db is not None:
-            lo, hi = self.improvement_range_db
-            checks.append(lo <= self.improvement_db <= hi)
+        """Both checks that apply (None: nothing to check it against)."""
+        checks = [c for c in (self.bare_ok, self.improvement_ok) if c is not None]
         return all(checks) if checks else None
 
 
@@ -231,8 +240,6 @@ def check_floor(surface: SurfaceMaterial, materials: MaterialLibrary,
     """:class:`FloorCheck` of one floor surface (its bare structure struck through
     ``bare_finish``, a hard one); a structure outside EN ISO 12354-2's homogeneous range gets
     no bare reference nor improvement (``always``: the improvement all the same)."""
-    from dataclasses import replace
-
     plate = surface_plate(surface, materials)
     levels = tapping_machine(surface, materials)
     lo, hi = HOMOGENEOUS_KG_M2
