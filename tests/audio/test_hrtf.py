@@ -270,3 +270,76 @@ def test_diffuse_field_power_weights_solid_angle():
     # horizontal-plane-only sets (no Voronoi diagram): equal shares by nearest-point counting
     ring = np.stack([unit(a) for a in np.arange(0.0, 360.0, 30.0)])
     assert np.allclose(solid_angle_weights(ring), 1 / 12, rtol=0.05)
+
+
+# --- which receiver is the left ear: a tiny SOFA file made here ------------------------------
+
+#: the fixture's directions (azimuth, elevation), degrees: front, left, back, right, up, down
+TINY_DIRECTIONS = [(0, 0), (90, 0), (180, 0), (270, 0), (0, 90), (0, -90)]
+
+
+def tiny_sofa(path: Path, receivers: str = "left-right", position_type: str = "cartesian"
+              ) -> Path:
+    """A SimpleFreeFieldHRIR file of six directions and 16-tap responses, written with h5py:
+    for a source direction u, the ear at y = +-0.09 m (y > 0: the left ear) hears an impulse
+    of gain 1 + 0.8 u.e after a whole-sample ``Data.Delay`` of 4 (1 - u.e) samples (e the
+    ear's side, +-y): the near ear louder and earlier. ``receivers``: "left-right" (receiver 0
+    is the left ear), "right-left" (receiver 0 is the right ear: the data's channels, delays
+    and ``ReceiverPosition`` all in that order), "missing" (no ``ReceiverPosition``) or
+    "both-left" (both receivers at y > 0)."""
+    side = {"left-right": (1, -1), "right-left": (-1, 1), "missing": (1, -1),
+            "both-left": (1, 1)}[receivers]
+    u = np.stack([unit(a, e) for a, e in TINY_DIRECTIONS])
+    ir = np.zeros((len(u), 2, 16))
+    delay = np.zeros((len(u), 2))
+    for r, s in enumerate(side):
+        ir[:, r, 0] = 1 + 0.8 * s * u[:, 1]
+        delay[:, r] = np.rint(4 * (1 - s * u[:, 1]))
+    with h5py.File(path, "w") as f:
+        f.attrs["Conventions"] = "SOFA"
+        f.attrs["SOFAConventions"] = "SimpleFreeFieldHRIR"
+        f["Data.IR"] = ir
+        f["Data.SamplingRate"] = np.array([44100.0])
+        f["Data.Delay"] = delay
+        f["SourcePosition"] = np.array([[a, e, 1.5] for a, e in TINY_DIRECTIONS], float)
+        f["SourcePosition"].attrs["Type"] = "spherical"
+        f["SourcePosition"].attrs["Units"] = "degree, degree, metre"
+        if receivers != "missing":
+            if position_type == "cartesian":
+                pos = np.array([[[0.0], [0.09 * s], [0.0]] for s in side])
+            else:  # azimuth 90 degrees: the left
+                pos = np.array([[[90.0 * s], [0.0], [0.09]] for s in side])
+            f["ReceiverPosition"] = pos
+            f["ReceiverPosition"].attrs["Type"] = position_type
+            f["ReceiverPosition"].attrs["Units"] = ("metre" if position_type == "cartesian"
+                                                    else "degree, degree, metre")
+    return path
+
+
+@pytest.mark.parametrize("receivers, position_type", [
+    ("left-right", "cartesian"), ("right-left", "cartesian"), ("right-left", "spherical")])
+def test_sofa_receiver_zero_is_the_left_ear(tmp_path, receivers, position_type):
+    """Whichever order the file stores its ears in, ear 0 of the loaded set is the left one
+    (ReceiverPosition y > 0): a source on the left (azimuth 90) is louder and earlier in
+    channel 0, one on the right in channel 1, and the front is balanced. The left ear leads
+    by 8 samples at azimuth 90 (the file's own delays, 4 (1 -+ 1)): ITD > 0 on the left."""
+    h = load_sofa(tiny_sofa(tmp_path / "tiny.sofa", receivers, position_type))
+    left, right, front = (response(h, az) for az in (90.0, -90.0, 0.0))
+    fs = h.sample_rate
+    assert ild_db(left, fs) == pytest.approx(20 * math.log10(1.8 / 0.2), abs=0.1)
+    assert ild_db(right, fs) == pytest.approx(-20 * math.log10(1.8 / 0.2), abs=0.1)
+    assert itd_s(left, fs) == pytest.approx(8 / fs, abs=0.5 / fs)
+    assert itd_s(right, fs) == pytest.approx(-8 / fs, abs=0.5 / fs)
+    assert abs(ild_db(front, fs)) < 1e-9 and abs(itd_s(front, fs)) < 0.5 / fs
+
+
+@pytest.mark.parametrize("receivers, words", [("missing", "missing"), ("both-left", "y > 0")])
+def test_sofa_without_a_left_and_a_right_receiver_is_refused(tmp_path, receivers, words):
+    """No ReceiverPosition, or two receivers on one side: which channel is the left ear is
+    unknown, and the file is refused in one line naming the variable."""
+    path = tiny_sofa(tmp_path / "tiny.sofa", receivers)
+    with pytest.raises(InputError) as err:
+        load_sofa(path)
+    msg = str(err.value)
+    assert err.value.field == "ReceiverPosition" and words in msg and "\n" not in msg
+    assert msg.startswith(f"{path}: ReceiverPosition: ")

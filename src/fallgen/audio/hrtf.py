@@ -37,9 +37,17 @@ Two sources of HRIRs:
 
 - :func:`load_sofa`: a measured set from an AES69 SOFA file (SimpleFreeFieldHRIR, netCDF4 read
   with h5py), resampled to ``sample_rate``. ``ListenerView`` is assumed to be +x (not read);
-  ``Data.Delay`` (samples) is applied as a whole-sample shift. Directions measured more than
+  ``Data.Delay`` (samples) is applied as a whole-sample shift. Which receiver is the left ear
+  comes from ``ReceiverPosition`` (SOFA's listener frame: x forward, y left, z up): the one with
+  y > 0; a file whose receiver 0 is the right ear has its channels swapped, so that ear 0 is
+  always the left one, and a file without ``ReceiverPosition``, or whose two receivers are not
+  one on each side (y of opposite signs), is refused. Directions measured more than
   once (equal within ``MERGE_TOL``, e.g. the zenith at several azimuths) keep their first
   measurement. Every problem with the file raises :class:`~fallgen.errors.InputError`.
+
+Interaural time difference (ITD), everywhere in fallgen (here, :func:`woodworth_itd`, the
+perception module's features): the right ear's arrival time minus the left ear's. ITD > 0: the
+source is on the left, the left ear hears it first.
 """
 
 from __future__ import annotations
@@ -188,7 +196,14 @@ def _unit_directions(f: h5py.File, path: str | Path, m: int) -> np.ndarray:
     if pos.ndim != 2 or pos.shape[1] != 3 or pos.shape[0] not in (1, m):
         raise InputError(path, name, f"shape {pos.shape}, expected ({m}, 3)")
     pos = np.broadcast_to(pos, (m, 3))
-    kind = _attr(f[name], "Type", "spherical")  # SimpleFreeFieldHRIR's default
+    return _to_unit(f, path, name, pos, "spherical")  # SimpleFreeFieldHRIR's default
+
+
+def _to_unit(f: h5py.File, path: str | Path, name: str, pos: np.ndarray, default: str
+             ) -> np.ndarray:
+    """(K, 3) positions of variable ``name`` (its ``Type``: spherical azimuth, elevation,
+    distance; or cartesian) as unit vectors in the listener's frame."""
+    kind = _attr(f[name], "Type", default)
     if kind == "spherical":  # azimuth deg, elevation deg, distance
         unit = _attr(f[name], "Units", "degree")
         k = 1.0 if "rad" in unit.split(",")[0] else math.pi / 180.0
@@ -202,6 +217,34 @@ def _unit_directions(f: h5py.File, path: str | Path, m: int) -> np.ndarray:
     else:
         raise InputError(path, name, f"unknown Type {kind!r} (expected spherical or cartesian)")
     return u / np.linalg.norm(u, axis=1, keepdims=True)
+
+
+def _left_receiver(f: h5py.File, path: str | Path, m: int) -> int:
+    """Which of the two receivers (``Data.IR``'s R axis) is the left ear: the one whose
+    ``ReceiverPosition`` lies on the listener's left (y > 0 in SOFA's listener frame, x
+    forward, y left, z up); the other must lie on the right (y < 0) in every measurement."""
+    name = "ReceiverPosition"
+    if name not in f:
+        raise InputError(path, name, "missing: which receiver is the left ear is unknown "
+                         "(expected (2, 3) or (2, 3, 1) positions, y > 0 for the left ear)")
+    pos = _read(f, path, name)
+    if pos.ndim == 2:
+        pos = pos[..., None]
+    if pos.ndim != 3 or pos.shape[:2] != (2, 3) or pos.shape[2] not in (1, m):
+        raise InputError(path, name, f"shape {pos.shape}, expected (2, 3, 1) or (2, 3, {m})")
+    flat = np.moveaxis(pos, 2, 1).reshape(-1, 3)  # (2 * I, 3): receiver 0's, then 1's
+    kind = _attr(f[name], "Type", "cartesian")
+    if kind == "cartesian":
+        y = flat[:, 1]
+    else:
+        y = _to_unit(f, path, name, flat, kind)[:, 1] * flat[:, 2]
+    y = y.reshape(2, -1)
+    if np.all(y[0] > 0) and np.all(y[1] < 0):
+        return 0
+    if np.all(y[0] < 0) and np.all(y[1] > 0):
+        return 1
+    raise InputError(path, name, f"receiver y = {np.round(y, 4).tolist()} m: need one ear on "
+                     "the left (y > 0) and one on the right (y < 0)")
 
 
 def load_sofa(path: str | Path, sample_rate: int = 44100) -> Hrtf:
@@ -228,12 +271,15 @@ def load_sofa(path: str | Path, sample_rate: int = 44100) -> Hrtf:
                              f"{rate.tolist()}: need one whole number of Hz > 0")
         m = ir.shape[0]
         dirs = _unit_directions(f, path, m)
+        left = _left_receiver(f, path, m)
         shift = np.zeros((m, 2), dtype=np.int64)
         if "Data.Delay" in f:
             dl = _read(f, path, "Data.Delay")
             if dl.ndim != 2 or dl.shape[0] not in (1, m) or dl.shape[1] != 2 or np.any(dl < 0):
                 raise InputError(path, "Data.Delay", f"shape {dl.shape} or negative values")
             shift = np.broadcast_to(np.rint(dl).astype(np.int64), (m, 2))
+    if left == 1:  # the file's receiver 0 is the right ear: ear 0 is the left one here
+        ir, shift = ir[:, ::-1], shift[:, ::-1]
     if shift.any():  # whole-sample delays, applied at the file's rate
         out = np.zeros((m, 2, ir.shape[2] + int(shift.max())))
         for i, r in np.ndindex(m, 2):
