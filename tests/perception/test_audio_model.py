@@ -37,10 +37,11 @@ def test_features_hear_direction_level_and_onset():
     c = f.extract(_click(0.5))
     assert a.shape == (len(names),) and a.dtype == np.float32
     itd, ild, onset = names.index("itd_4ms"), names.index("ild_onset_db"), names.index("onset_s")
-    assert a[itd] == pytest.approx(-0.5, abs=0.05) and b[itd] == pytest.approx(0.5, abs=0.05)
+    # ITD > 0: the left ear hears first (fallgen.audio.hrtf's convention)
+    assert a[itd] == pytest.approx(0.5, abs=0.05) and b[itd] == pytest.approx(-0.5, abs=0.05)
     for level in ("itd_onset5", "itd_onset10"):  # the ears' first arrivals, 0.5 ms apart
         k = names.index(level)
-        assert a[k] == pytest.approx(-0.5, abs=0.05) and b[k] == pytest.approx(0.5, abs=0.05)
+        assert a[k] == pytest.approx(0.5, abs=0.05) and b[k] == pytest.approx(-0.5, abs=0.05)
         assert c[k] == pytest.approx(0.0, abs=0.03)
     assert a[ild] == pytest.approx(20 * math.log10(2), abs=0.5)
     assert b[ild] == pytest.approx(-20 * math.log10(2), abs=0.5)

@@ -12,7 +12,10 @@ holds the settings and names every entry):
   within ``max_itd_s``, over the direct sound (4 ms from the onset) and longer windows, and the
   correlation's peaks; the difference of the ears' first-arrival times; the direct sound's
   level difference between the ears per band group; the direct sound's share of the first 80 ms
-  (near falls are drier); the level;
+  (near falls are drier); the level. Row 0 of a clip is the left ear. The interaural time
+  difference is the right ear's arrival time minus the left ear's, in ms, as everywhere in
+  fallgen (:mod:`fallgen.audio.hrtf`): ITD > 0, the source is on the left, the left ear hears
+  it first (version 5; up to version 4 the sign was the other way round);
 - when it is: the onset time in the clip (a fall from higher lands later);
 - its echoes: the power cepstrum of each ear's first 40 ms and the autocorrelation of their
   sum, per delay bin (the agent's own distance to the floor and the walls: a cue to how far the
@@ -69,7 +72,9 @@ class AudioFeatures:
     #: quefrency / lag bins (ms) where the echoes of the first 40 ms are looked for (the
     #: agent's own distance to the floor and the walls, a cue to how far the fall was)
     echo_bins_ms: tuple[float, ...] = (0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 30.0)
-    version: int = 4
+    #: 5: the interaural time differences are > 0 when the left ear hears first (4 and
+    #: before: when it hears later); a model trained on other versions is refused
+    version: int = 5
 
     def to_dict(self) -> dict:
         d = asdict(self)
@@ -171,17 +176,20 @@ class AudioFeatures:
             cc = np.fft.irfft(cross / (np.abs(cross) + EPS) ** self.phat_beta, nfft)
             window = np.concatenate([cc[-lag:], cc[:lag + 1]])  # lags -lag .. lag
             k = int(np.argmax(window))
-            itds.append((k - lag) / fs * 1e3)  # > 0: the left ear hears it later
+            # the left ear's signal matches the right's k - lag samples later: the right
+            # ear's arrival minus the left's is lag - k (> 0: the left ear hears it first)
+            itds.append((lag - k) / fs * 1e3)
             peaks.append(float(window[k]))
         # each ear's first arrival: where it first reaches a share of the direct sound's peak
-        # (2 ms before the onset to 10 ms after it), later in the left ear: > 0
+        # (2 ms before the onset to 10 ms after it): the right ear's time minus the left's
+        # (> 0: the left ear hears it first)
         a = max(0, first - int(0.002 * fs))
         near = np.abs(x[:, a:first + int(0.01 * fs)])
         top = float(near.max()) if near.size else 0.0
         onset_itds = []
         for v in self.onset_levels:
             t_l, t_r = (int(np.argmax(e >= v * top)) for e in near) if top > 0 else (0, 0)
-            onset_itds.append(float(np.clip((t_l - t_r) / fs * 1e3, -1e3 * self.max_itd_s,
+            onset_itds.append(float(np.clip((t_r - t_l) / fs * 1e3, -1e3 * self.max_itd_s,
                                             1e3 * self.max_itd_s)))
         # the direct sound's level difference per band group
         n = max(int(self.direct_s * fs), 64)
