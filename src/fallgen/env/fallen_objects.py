@@ -21,11 +21,12 @@ Observations (a ``Dict``; ``sensors`` chooses which; fixed shapes):
   expert's next action from the current pose: the first action of the shortest plan, the
   dataset's own plan while the agent follows it; :data:`NO_PLAN` if none exists).
 
-Rendering: the colour pass and the depth-and-segmentation pass are separate renders (the colour
-pass is multisampled; its depth buffer is off by ~0.5 mm at the median and centimetres at edges,
-the segmentation pass's depth is exact to float32), each made only when a sensor asks for it,
-and kept in a bounded per-episode cache keyed by the pose (turning in place or coming back
-renders nothing).
+Rendering: the colour pass and the depth-and-segmentation pass are separate renders (``depth``
+comes from the latter, exact to float32), each made only when a sensor asks for it, and kept in a
+bounded per-episode cache keyed by the pose (turning in place or coming back renders nothing).
+Neither pass is multisampled (``OFFSCREEN_SAMPLES = 0`` in :mod:`fallgen.vision.camera`: on a
+CPU renderer 4x multisampling nearly doubled a view's cost), so polygon edges in ``rgb`` are not
+anti-aliased.
 
 Reward (``reward="paper"``, the original challenge's): -0.01 per action; +10 for a successful
 ``found``; +1 when a move brings the agent closer to the object, -1 when farther (horizontal
