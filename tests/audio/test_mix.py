@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from fallgen.audio.hrtf import load_sofa, spherical_head
-from fallgen.audio.mix import (FULL_SCALE_PA, DrySource, Listener, binaural_rir, mix,
+from fallgen.audio.mix import (FULL_SCALE_PA, DrySource, Listener, binaural_rir,
+                               fast_level_db_spl, fast_max_db_spl, levels_db_spl, mix,
                                write_wav)
 from fallgen.audio.room import RirSettings, RoomAcoustics
 
@@ -65,6 +66,13 @@ def test_direct_sound_arrives_at_distance_over_c():
     assert np.abs(h[:, :int(n0) - 20]).max() < 0.05 * np.abs(h[0, :350]).max()  # nothing early
 
 
+def _check_direct_sum(p, i0, distance_m, amplitude_pa):
+    """The direct sound's samples sum to the click's over the distance (1/r, r in metres)."""
+    n0 = i0 + int(distance_m / 343.0 * FS)
+    got = p[:, n0 - 60:n0 + 60].sum(axis=1)
+    np.testing.assert_allclose(got, amplitude_pa / distance_m, rtol=0.01)
+
+
 def test_mix_units_headroom_and_determinism():
     rng = np.random.default_rng(0)
     click = np.zeros(FS)
@@ -77,8 +85,12 @@ def test_mix_units_headroom_and_determinism():
     assert a.audio.dtype == np.float32 and a.audio.shape == (2, int(0.6 * FS))
     assert np.array_equal(a.audio, b.audio) and a.gain == 1.0
     p = a.pressure_pa()
-    # direct sound of the first click, 2 m away: about 1/2 Pa (within the HRTF's gain)
-    assert 0.2 < np.abs(p[:, :2000]).max() < 1.0
+    # the first click's direct sound, 2 m away, is 1 Pa x 1 m / 2 m: its samples (+-60 around
+    # its arrival, before the floor's reflection at 3.1 m) sum to 0.5 Pa in each ear, the
+    # spherical head's filters passing 0 Hz unchanged (within 1 %)
+    _check_direct_sum(p, 100, 2.0, 1.0)
+    with pytest.raises(AssertionError):  # a mix that lost the 1 / r law
+        _check_direct_sum(2.0 * p, 100, 2.0, 1.0)
     loud = mix(ROOM, [DrySource(srcs[0].position, 1e4 * click)], HEAD, hr, rng, SHORT)
     assert loud.gain < 1.0 and np.abs(loud.audio).max() <= 0.99 + 1e-6
     # the recorded gain restores absolute pressure: 1e4 times the first click's direct sound
@@ -114,3 +126,52 @@ def test_write_wav_roundtrip(tmp_path):
     write_wav(tmp_path / "a.wav", clip)
     data, fs = sf.read(tmp_path / "a.wav", dtype="float32")
     assert fs == FS and data.shape == clip.audio.T.shape and np.array_equal(data, clip.audio.T)
+
+
+#: IEC 61672-1:2013 table 4, F time weighting: a 4 kHz tone burst's maximum level relative to
+#: the steady tone's, dB, with class 1's acceptance limits (burst duration s: reference, -, +).
+IEC_F_BURSTS = [(0.2, -1.0, 0.5, 0.5), (0.002, -18.0, 1.5, 1.0), (0.00025, -27.0, 3.0, 1.0)]
+
+
+def _burst(duration_s: float, fs: int) -> np.ndarray:
+    """A 4 kHz tone burst of unit amplitude, a whole number of cycles from a zero crossing,
+    after 10 ms of silence, followed by 0.5 s of silence."""
+    t = np.arange(int(fs * 0.5)) / fs
+    tone = np.where(t < duration_s, np.sin(2 * np.pi * 4000 * t), 0.0)
+    return np.concatenate([np.zeros(int(0.01 * fs)), tone])
+
+
+@pytest.mark.parametrize("fs", [48000, 44100])
+@pytest.mark.parametrize("duration_s, ref_db, minus, plus", IEC_F_BURSTS)
+def test_fast_time_weighting_tone_bursts(fs, duration_s, ref_db, minus, plus):
+    """The F-time-weighted level's maximum for a 4 kHz burst, relative to the steady tone's
+    level (its Leq, a sine's 0.5 Pa^2 per Pa^2 of amplitude), is IEC 61672-1's table 4 value
+    within class 1's limits, and within 0.05 dB of the defining response 10 lg(1 -
+    exp(-T_b / 0.125 s))."""
+    steady = 10 * np.log10(0.5 / 4e-10)
+    got = fast_max_db_spl(_burst(duration_s, fs)[None, :], fs) - steady
+    assert ref_db - minus <= got <= ref_db + plus
+    assert got == pytest.approx(10 * np.log10(1 - np.exp(-duration_s / 0.125)), abs=0.05)
+
+
+def test_rectangular_window_is_not_the_fast_weighting():
+    """The dataset's Leq over the loudest 125 ms window is not the F weighting: a 200 ms burst
+    fills the window (0 dB), outside table 4's -1.0 +- 0.5 dB that the F weighting meets."""
+    fs = 44100
+    steady = 10 * np.log10(0.5 / 4e-10)
+    x = _burst(0.2, fs)[None, :]
+    assert levels_db_spl(x, fs)[1] - steady > -0.5
+    assert -1.5 <= fast_max_db_spl(x, fs) - steady <= -0.5
+
+
+def test_fast_time_weighting_decays_at_34_7_db_per_second():
+    """After a steady tone stops the F-weighted level falls at 10 lg(e) / 0.125 s = 34.7 dB/s
+    (IEC 61672-1: at least 25 dB/s), and during it stays at the tone's level."""
+    fs = 44100
+    t = np.arange(2 * fs) / fs
+    x = np.where(t < 1.0, np.sin(2 * np.pi * 1000 * t), 0.0)
+    level = fast_level_db_spl(x, fs)
+    assert level[int(0.99 * fs)] == pytest.approx(10 * np.log10(0.5 / 4e-10), abs=0.05)
+    i0, i1 = int(1.1 * fs), int(1.6 * fs)
+    slope = (level[i1] - level[i0]) / ((i1 - i0) / fs)
+    assert slope == pytest.approx(-10 * np.log10(np.e) / 0.125, rel=0.005)
