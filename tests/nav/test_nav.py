@@ -220,28 +220,148 @@ def test_walk_judges_one_action_at_a_time_with_claims():
         Walk(start, EMPTY, target, ALWAYS, claims=0)
 
 
-def test_expert_goes_around_an_obstacle_and_scores_one():
-    target = (5.0, 1.0, 0.05)
-    start = Pose(1.0, 1.0, 0)
-    e = expert(start, WALLED, target, ALWAYS, ALWAYS)
-    o = run(start, e.plan.actions, WALLED, target, ALWAYS)
-    assert o.success and o.spl(e.shortest_m) == 1.0  # exactly
-    assert o.sna(e.fewest_actions) > 0.8
-    assert e.plan.actions[-1] == FOUND
-    # it had to pass the partition's open end (y > 3 m)
-    assert max(p.y for p in o.poses) > 3.0 - 0.5
-    # every step of the way is free for the robot
-    assert all(WALLED.free_for(p.xy[None], 0.2)[0] for p in o.poses)
+# --- the expert ---------------------------------------------------------------------------
+
+
+def _box(target, half: float = 0.01) -> np.ndarray:
+    """The corners of a small box around ``target``: what bounds the object for the expert."""
+    from fallgen.nav.occupancy import BOX_SIGNS
+
+    return np.asarray(target, float) + half * BOX_SIGNS
+
+
+def _unblocked(grid, p: Pose, target) -> bool:
+    """No occupied cell on the floor-plan segment from the pose to the target (every 1 cm)."""
+    a, b = p.xy, np.asarray(target, float)[:2]
+    n = max(int(np.linalg.norm(b - a) / 0.01), 1)
+    pts = a + np.linspace(0.0, 1.0, n + 1)[:, None] * (b - a)
+    cells = np.floor(pts / grid.resolution).astype(int)
+    inside = (cells >= 0).all(1) & (cells < np.array(grid.shape)).all(1)
+    return not grid.occupied[cells[inside, 0], cells[inside, 1]].any()
+
+
+def _sight(target, grid=None, share: float = 1.0, salt: int = 0):
+    """A visibility verdict consistent with a camera: the target's centre strictly inside the
+    view frustum, nothing on the floor-plan segment to it (with ``grid``), and then a random
+    ``share`` of such poses (a hash of the pose and ``salt``)."""
+    from tests_nav_brute import in_frustum
+
+    def seen(p: Pose) -> bool:
+        if not in_frustum(p, target) or (grid is not None and not _unblocked(grid, p, target)):
+            return False
+        if share >= 1.0:
+            return True
+        h = hash((round(p.x * 1e9), round(p.y * 1e9), p.heading, p.tilt_deg, salt))
+        return (h % 1000) < share * 1000
+
+    return seen
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _brute_force_module():
+    """tests/nav/brute_force.py importable as ``tests_nav_brute``."""
+    import importlib.util
+    import sys
+    from pathlib import Path
+
+    spec_ = importlib.util.spec_from_file_location(
+        "tests_nav_brute", Path(__file__).with_name("brute_force.py"))
+    module = importlib.util.module_from_spec(spec_)
+    spec_.loader.exec_module(module)
+    sys.modules["tests_nav_brute"] = module
+    yield module
+    del sys.modules["tests_nav_brute"]
+
+
+def _check_against_brute_force(e, start, g, target, seen, brute, spec=AgentSpec()):
+    moves, fewest = brute.optimum(start, g, target, seen, spec)
+    assert (round(e.shortest_m / STEP_M), e.fewest_actions) == (moves, fewest)
+    o = run(start, e.plan.actions, g, target, seen, spec)
+    assert o.success and o.path_m == e.shortest_m and o.spl(e.shortest_m) == 1.0
+    assert len(e.plan.actions) >= e.fewest_actions
+
+
+def test_expert_references_are_the_brute_force_optimum_on_small_maps(_brute_force_module,
+                                                                    monkeypatch):
+    """On small cluttered maps, the object 2.3-3.3 m from the start, with verdicts that a wall
+    blocks and that hold on random shares of the poses, the expert's l and n* equal a
+    breadth-first search over every pose of the unmerged lattice (tests/nav/brute_force.py),
+    and its plan reaches l exactly. (Three tilts, so that the brute force stays quick.)"""
+    rng = np.random.default_rng(12)
+    spec = AgentSpec(tilt_min_deg=-15, tilt_max_deg=15)
+    compared, refuted, moves = 0, 0, []
+    while compared < 14:
+        g, free = _cluttered(rng, (int(rng.integers(34, 44)), int(rng.integers(30, 40))),
+                             int(rng.integers(0, 6)), 5)
+        a, b = free[rng.choice(len(free), 2, replace=False)]
+        if not 23 <= np.linalg.norm(a - b) <= 33:
+            continue
+        start = Pose(float((a[0] + rng.uniform(0.2, 0.8)) * 0.1),
+                     float((a[1] + rng.uniform(0.2, 0.8)) * 0.1), int(rng.integers(12)),
+                     int(rng.choice([0, -15, 15])))
+        target = np.array([(b[0] + 0.5) * 0.1, (b[1] + 0.5) * 0.1, rng.uniform(0.3, 1.8)])
+        seen = _sight(target, g if compared % 2 else None, 1.0 if compared % 3 else 0.3,
+                      compared)
+        try:
+            e = expert(start, g, target, _box(target), seen, spec)
+        except NoPath:
+            assert _brute_force_module.optimum(start, g, target, seen, spec) == (None, None)
+            continue
+        _check_against_brute_force(e, start, g, target, seen, _brute_force_module, spec)
+        compared += 1
+        moves.append(round(e.shortest_m / STEP_M))
+        # the check fails for a search whose goals stop 10 cm short of the judge's reach
+        with monkeypatch.context() as m:
+            m.setattr("fallgen.nav.expert.SUCCESS_DISTANCE_M", 1.9)
+            short = expert(start, g, target, _box(target), seen, spec)
+        if (short.shortest_m, short.fewest_actions) != (e.shortest_m, e.fewest_actions):
+            with pytest.raises(AssertionError):
+                _check_against_brute_force(short, start, g, target, seen,
+                                           _brute_force_module, spec)
+            refuted += 1
+    assert min(moves) >= 1 and max(moves) >= 4, moves  # real paths, not claims on the spot
+    assert refuted >= 5, refuted
+
+
+def test_an_object_in_view_within_reach_needs_no_action_but_found():
+    """An object on the floor 1.9 m ahead is in the 90 degree view at tilt 0: the optimum is
+    ``found`` alone (no tilt toward the object's centre is needed)."""
+    target = (2.5, 1.0, 0.02)
+    start = Pose(0.6, 1.0, 0)
+    seen = _sight(target)
+    assert seen(start)
+    e = expert(start, EMPTY, target, _box(target), seen)
+    assert e.plan.actions == (FOUND,) and e.fewest_actions == 1 and e.shortest_m == 0.0
 
 
 def test_expert_tilts_down_to_an_object_at_its_feet():
-    target = (2.0, 1.0, 0.02)
-    e = expert(Pose(0.6, 1.0, 0), EMPTY, target, ALWAYS, ALWAYS)
-    assert DOWN in e.plan.actions and UP not in e.plan.actions
-    assert e.plan.goal.tilt_deg < 0
+    """0.6 m ahead on the floor the object is 61 degrees below the horizon: out of the view
+    at tilt 0 and -15, in it at -30: two ``look_down``, no move (fewest moves first)."""
+    target = (1.2, 1.0, 0.02)
+    start = Pose(0.6, 1.0, 0)
+    e = expert(start, EMPTY, target, _box(target), _sight(target))
+    assert e.plan.actions == (DOWN, DOWN, FOUND) and e.plan.goal.tilt_deg == -30
+    assert e.fewest_actions == 3
 
 
-def test_expert_uses_the_renderer_verdict_and_fails_cleanly():
+def test_expert_goes_around_an_obstacle_and_scores_one():
+    target = (5.0, 1.0, 0.05)
+    start = Pose(2.0, 1.0, 0)
+    seen = _sight(target, WALLED)
+    e = expert(start, WALLED, target, _box(target), seen)
+    o = run(start, e.plan.actions, WALLED, target, seen)
+    assert o.success and o.spl(e.shortest_m) == 1.0  # exactly
+    assert e.plan.actions[-1] == FOUND and o.visible is True
+    # it had to pass the partition's open end (y > 3 m), its every step free for the robot
+    assert max(p.y for p in o.poses) > 3.0 - 0.5
+    assert all(WALLED.free_for(p.xy[None], 0.2)[0] for p in o.poses)
+
+
+def test_expert_gives_up_within_its_limits_and_fails_cleanly():
+    """Verdicts that never hold: the exact lattice never runs out (its positions are dense),
+    so the search stops at its limits with SearchLimit (a NoPath)."""
+    from fallgen.nav.expert import Limits, SearchLimit
+
     target = (5.0, 1.0, 0.05)
     calls = []
 
@@ -249,9 +369,13 @@ def test_expert_uses_the_renderer_verdict_and_fails_cleanly():
         calls.append(p)
         return False
 
-    with pytest.raises(NoPath):
-        expert(Pose(1.0, 1.0, 0), WALLED, target, ALWAYS, never)
-    assert calls  # candidates were rendered and all refused
+    with pytest.raises(SearchLimit):
+        expert(Pose(1.0, 1.0, 0), WALLED, target, _box(target), never,
+               limits=Limits(verdicts=500))
+    assert 500 <= len(calls) <= 520  # the candidates' views were asked, then it stopped
+    with pytest.raises(SearchLimit):
+        expert(Pose(1.0, 1.0, 0), WALLED, target, _box(target), never,
+               limits=Limits(states=50_000))
 
 
 def _cluttered(rng, shape: tuple[int, int], boxes: int, side: int):
@@ -281,148 +405,42 @@ def test_expert_plans_execute_exactly_in_cluttered_rooms():
                      float((a[1] + rng.uniform(0.3, 0.7)) * 0.1), int(rng.integers(12)))
         target = ((b[0] + 0.5) * 0.1, (b[1] + 0.5) * 0.1, 0.4)
         try:
-            e = expert(start, g, target, ALWAYS, ALWAYS)
+            e = expert(start, g, target, _box(target), _sight(target, g))
         except NoPath:
             continue
         pose = start
         for act in e.plan.actions:
             pose, moved = step(pose, act, g)
-            assert moved or act in (UP, DOWN), "a planned move was blocked"
-        assert (pose.x, pose.y, pose.heading) == (e.plan.goal.x, e.plan.goal.y,
-                                                  e.plan.goal.heading)
+            assert moved, "a planned action was blocked"
+        assert pose == e.plan.goal
         checked += 1
     assert checked >= 20
 
 
-def _one_pose_tilt_steps(pose, target, spec):
-    """The tilt rule for one pose, spelled out: the tilt nearest the object's elevation within
-    the vertical field of view less the margin (the lowest on ties), None if there is none."""
-    from fallgen.nav.expert import FOV_DEG, MARGIN_DEG
+def test_lattice_keys_positions_exactly_whatever_the_order():
+    """Two move orders that reach one point share its lattice key; points a fraction of a
+    step apart (which 5 cm bins would merge) do not."""
+    from fallgen.nav.lattice import LATTICE_STEPS, pack
 
-    d = float(np.hypot(target[0] - pose.x, target[1] - pose.y))
-    elev = math.degrees(math.atan2(target[2] - spec.camera_height_m, max(d, 1e-6)))
-    best = None
-    for t in range(spec.tilt_min_deg, spec.tilt_max_deg + 1, spec.tilt_step_deg):
-        if abs(elev - t) <= FOV_DEG / 2 - MARGIN_DEG and (
-                best is None or abs(elev - t) < abs(elev - best)):
-            best = t
-    return None if best is None else (best - pose.tilt_deg) // spec.tilt_step_deg
+    def key(headings, final=0):
+        c = np.zeros(4, np.int64)
+        x = np.zeros(2)
+        for k in headings:
+            c += LATTICE_STEPS[k]
+            x = x + STEP_M * np.array([math.cos(math.radians(30 * k)),
+                                       math.sin(math.radians(30 * k))])
+        return int(pack(*c.tolist(), final, 12)), x
 
-
-def test_compiled_tilt_choice_and_free_lookup_match_their_references():
-    """The compiled search's scalar forms agree exactly with one-pose definitions: the tilt
-    rule spelled out for one pose, and OccupancyGrid.free_for (the simulator's check)."""
-    from fallgen.nav.expert import FOV_DEG, MARGIN_DEG
-    from fallgen.nav.lattice import NO_TILT, free_at, tilt_step
-
-    rng = np.random.default_rng(7)
-    spec = AgentSpec()
-    for tilt in (0, -15, 30):
-        target = np.array([3.0, 2.0, rng.uniform(0.0, 2.5)])
-        xy = rng.uniform(0.0, 6.0, (400, 2))
-        dist = np.hypot(target[0] - xy[:, 0], target[1] - xy[:, 1])
-        dist[:3] = 0.0  # straight below or above
-        for d in dist.tolist():
-            g = tilt_step(d, target[2], spec.camera_height_m, tilt, spec.tilt_min_deg,
-                          spec.tilt_max_deg, spec.tilt_step_deg, FOV_DEG / 2 - MARGIN_DEG)
-            p = Pose(float(target[0] - d), float(target[1]), 0, tilt)  # same distance
-            want = _one_pose_tilt_steps(p, target, spec)
-            assert (g == NO_TILT) if want is None else g == want
-    ok = np.full((WALLED.shape[0] + 2, WALLED.shape[1] + 2), False)
-    ok[1:-1, 1:-1] = WALLED.clearance >= 0.2
-    pts = rng.uniform(-1.0, 7.0, (5000, 2))
-    pts[:50] = np.round(pts[:50] / 0.1) * 0.1  # on cell edges
-    got = [free_at(ok, WALLED.resolution, WALLED.shape[0] + 1, WALLED.shape[1] + 1, x, y)
-           for x, y in pts.tolist()]
-    assert np.array_equal(got, WALLED.free_for(pts, 0.2))
-
-
-def test_compiled_search_makes_the_plans_of_its_numpy_reference():
-    """The compiled lattice search (fallgen.nav.lattice) against the vectorised NumPy search
-    it replaced (tests/nav/numpy_search.py), in random clutter with arbitrary line-of-sight
-    and visibility verdicts, both cost settings: the same actions, goal, path length, renders
-    and total cost, and the same refusals."""
-    import importlib.util
-    from pathlib import Path
-
-    from fallgen.nav.expert import _search
-
-    spec_ = importlib.util.spec_from_file_location(
-        "numpy_search", Path(__file__).with_name("numpy_search.py"))
-    module = importlib.util.module_from_spec(spec_)
-    spec_.loader.exec_module(module)
-    reference = module.search
-
-    rng = np.random.default_rng(11)
-    spec = AgentSpec()
-    compared = nopath = 0
-    for trial in range(60):
-        shape = (int(rng.integers(30, 70)), int(rng.integers(30, 70)))
-        g, free = _cluttered(rng, shape, int(rng.integers(0, 16)), 6)
-        if len(free) < 2:
-            continue
-        a, b = free[rng.choice(len(free), 2, replace=False)]
-        start = Pose(float((a[0] + rng.uniform(0.2, 0.8)) * 0.1),
-                     float((a[1] + rng.uniform(0.2, 0.8)) * 0.1), int(rng.integers(12)),
-                     int(rng.choice([0, -15, 15])))
-        target = np.array([(b[0] + 0.5) * 0.1, (b[1] + 0.5) * 0.1, rng.uniform(0.0, 2.0)])
-        salt, p_los = int(rng.integers(1 << 30)), rng.uniform(0.2, 1.0)
-        p_vis = rng.uniform(0.02, 1.0) if trial % 8 else 0.0  # never: refusals only
-
-        def verdict(p: Pose, share: float, extra: int, salt: int = salt) -> bool:
-            h = hash((round(p.x * 1e9), round(p.y * 1e9), p.heading, p.tilt_deg, salt, extra))
-            return (h % 1000) < share * 1000
-
-        def los(p: Pose, share: float = p_los) -> bool:
-            return verdict(Pose(p.x, p.y, 0), share, 1)
-
-        def vis(p: Pose, share: float = p_vis) -> bool:
-            return verdict(p, share, 2)
-
-        view = float(rng.choice([math.inf, 2.5, 1.2, 0.5]))  # 0.5: no candidate at all
-        for costs in ((1000, 1), (1, 1)):
-            try:
-                plan, total = _search(start, g, target, spec, *costs, los, vis, view)
-            except NoPath as e:
-                with pytest.raises(NoPath) as ref_e:
-                    reference(start, g, target, spec, *costs, los, vis, view)
-                assert str(ref_e.value) == str(e)
-                nopath += 1
-                continue
-            want = reference(start, g, target, spec, *costs, los, vis, view)
-            assert (plan.actions, plan.goal, plan.path_m, plan.renders, total) == want, trial
-            compared += 1
-    assert compared >= 50 and nopath >= 3, (compared, nopath)
-
-
-def test_lattice_ring_too_short_is_an_error_not_a_wrong_plan():
-    """The bucket ring holds one slot per cost over a move and a turn; with fewer, two live
-    costs would share a slot: the search stops with an error instead of mixing them."""
-    from fallgen.nav.agent import HEADING_VECTORS, STEP_FRACTIONS, TURN_DEG
-    from fallgen.nav.expert import BIN_M
-    from fallgen.nav.lattice import Lattice
-
-    spec = AgentSpec()
-    g = EMPTY
-    nbx = math.ceil(g.shape[0] * g.resolution / BIN_M) + 1
-    nby = math.ceil(g.shape[1] * g.resolution / BIN_M) + 1
-    ok = np.zeros((g.shape[0] + 2, g.shape[1] + 2), bool)
-    ok[1:-1, 1:-1] = g.clearance >= spec.radius_m
-
-    def lattice(ring: int | None) -> Lattice:
-        lat = Lattice(size=nbx * nby * 12, nby=nby, ok=ok, resolution=g.resolution, bin_m=BIN_M,
-                      step_m=STEP_M, step_fractions=STEP_FRACTIONS,
-                      heading_vectors=HEADING_VECTORS, turn_deg=TURN_DEG,
-                      target=np.array([5.5, 3.5, 0.4]), camera_height_m=spec.camera_height_m,
-                      reach_m=1.9, max_view_m=math.inf, half_fov_deg=35.0, move_cost=1000,
-                      turn_cost=1, tilt_deg=0, tilt_min_deg=spec.tilt_min_deg,
-                      tilt_max_deg=spec.tilt_max_deg, tilt_step_deg=spec.tilt_step_deg,
-                      actions=(FORWARD, LEFT, RIGHT))
-        if ring is not None:
-            lat._head = np.full(ring, -1, np.int64)
-        lat.start(0.5, 0.5, 0)
-        return lat
-
-    assert len(lattice(None).advance()) > 0  # candidates near the far corner
-    with pytest.raises(RuntimeError, match="share a bucket"):
-        lattice(7).advance()
+    k1, x1 = key([0, 2, 4, 1])
+    k2, x2 = key([4, 1, 0, 2])
+    assert k1 == k2 and np.allclose(x1, x2, atol=1e-12)
+    # 0 then 1 then 11 against 0 twice: 2 cos(30) * 0.25 = 0.433 vs 0.5, 6.7 cm apart
+    k3, x3 = key([0, 1, 11])
+    k4, x4 = key([0, 0, 0])
+    assert k3 != k4 and 0.05 < np.linalg.norm(x3 - x4) < 0.1
+    # every step's lattice coordinates are its float step, exactly
+    for k in range(12):
+        a, b, c, d = LATTICE_STEPS[k].tolist()
+        want = STEP_M * np.array([math.cos(math.radians(30 * k)), math.sin(math.radians(30 * k))])
+        assert np.allclose([(a + b * math.sqrt(3)) / 8, (c + d * math.sqrt(3)) / 8], want,
+                           atol=1e-15)

@@ -1,5 +1,7 @@
-"""Line of sight (fallgen.vision.sight): the slab test against analytic cases, and the verdict
-against casting every ray, in a furnished room with the target in every fall zone."""
+"""The occlusion proof (fallgen.vision.sight) and its cover test (fallgen.vision.cover):
+the cover test against Shapely's polygon algebra, the proof against the renderer itself (no
+view from an eye it calls hidden shows a pixel of the object), and the renderer's back-face
+culling that the proof relies on."""
 
 from __future__ import annotations
 
@@ -8,55 +10,104 @@ import math
 import mujoco
 import numpy as np
 import pytest
+import shapely
 
-from fallgen.nav.agent import AgentSpec
-from fallgen.nav.occupancy import BOX_SIGNS
-from fallgen.pipeline.settled import target_box as _target_box
-from fallgen.vision import sight
-from fallgen.vision.sight import DRAWN_GROUPS, box_entries, line_of_sight
-from fallgen.world.scene import PlacedObject, build_scene
-
-
-def _entries(eye, unit, lo, hi, rot=None, centre=None):
-    out = np.empty(len(unit))
-    box_entries(np.asarray(eye, float), np.asarray(unit, float), np.asarray(lo, float),
-                np.asarray(hi, float), np.eye(3) if rot is None else rot,
-                np.zeros(3) if centre is None else centre, out)
-    return out
+from fallgen.nav.agent import AgentSpec, Pose
+from fallgen.pipeline.settled import target_corners
+from fallgen.vision.camera import EgoCamera
+from fallgen.vision.cover import convex_hull, covered
+from fallgen.vision.sight import Occluders
+from fallgen.world.scene import LOOK, PlacedObject, build_scene
 
 
-def test_box_entries_analytic():
-    lo, hi = [1.0, -1.0, -1.0], [3.0, 1.0, 1.0]
-    s = 1 / math.sqrt(2)
-    got = _entries([0, 0, 0], [[1, 0, 0], [-1, 0, 0], [0, 1, 0], [s, s, 0]], lo, hi)
-    assert got[0] == 1.0  # straight at the near face
-    assert got[1] == math.inf  # away from it (the box is behind the eye)
-    assert got[2] == math.inf  # parallel to the x slab, outside it
-    assert got[3] == pytest.approx(math.sqrt(2))  # enters through the near face at (1, 1)
-    inside = _entries([2, 0, 0], [[1, 0, 0], [0, 0, 1]], lo, hi)
-    assert (inside <= 0).all()
-    # an oriented box: the same box turned 90 degrees about z and moved to (0, 5, 0)
-    rot = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # columns: its axes
-    got = _entries([0, 0, 0], [[0, 1, 0]], [-1, -1, -1], [1, 1, 1], rot, np.array([0, 5.0, 0]))
-    assert got[0] == pytest.approx(4.0)
+def _cover(g: np.ndarray, polys: list[np.ndarray]) -> bool:
+    cx = np.zeros((len(polys), 8))
+    cy = np.zeros((len(polys), 8))
+    cn = np.array([len(p) for p in polys], np.int64)
+    for i, p in enumerate(polys):
+        cx[i, :len(p)], cy[i, :len(p)] = p[:, 0], p[:, 1]
+    return bool(covered(g[:, 0].copy(), g[:, 1].copy(), len(g), cx, cy, cn, len(polys),
+                        1e-14, 4096))
 
 
-def _every_ray(model, data, owners, eye, points):
-    """The reference: cast every ray."""
-    gid = np.zeros(1, np.int32)
-    for p in points:
-        v = p - eye
-        d = float(np.sqrt((v * v).sum()))
-        h = mujoco.mj_ray(model, data, eye, v / d, DRAWN_GROUPS, 1, -1, gid)
-        if h < 0 or h >= d or owners[int(gid[0])] == "obj:target":
-            return True
-    return False
+def test_cover_agrees_with_shapely():
+    """Random convex polygons under random triangles and quads (either orientation, shared
+    edges, gaps): the verdict of Shapely's union and cover, every time, both ways often."""
+    rng = np.random.default_rng(3)
+    verdicts = []
+    for trial in range(300):
+        pts = rng.normal(size=(int(rng.integers(3, 12)), 2)) * 0.2
+        hx, hy = np.empty(len(pts)), np.empty(len(pts))
+        n = convex_hull(pts[:, 0].copy(), pts[:, 1].copy(), len(pts), hx, hy)
+        g = np.column_stack([hx[:n], hy[:n]])
+        ref_hull = shapely.convex_hull(shapely.multipoints(pts))
+        assert shapely.Polygon(g).equals_exact(ref_hull.normalize(), 1e-12) or \
+            abs(shapely.Polygon(g).area - ref_hull.area) < 1e-12
+        polys = []
+        if trial % 3 == 0:  # a grid of triangles sharing edges, maybe with one left out
+            xs = np.linspace(-0.8, 0.8, 6)
+            for i in range(5):
+                for j in range(5):
+                    a, b = (xs[i], xs[j]), (xs[i + 1], xs[j])
+                    c, d = (xs[i + 1], xs[j + 1]), (xs[i], xs[j + 1])
+                    polys += [np.array([a, b, c]), np.array([a, d, c])]  # second one clockwise
+            if trial % 2:
+                del polys[int(rng.integers(len(polys)))]
+        else:
+            for _ in range(int(rng.integers(1, 25))):
+                c = rng.normal(size=2) * 0.3
+                k = int(rng.integers(3, 5))
+                ang = np.sort(rng.uniform(0, 2 * np.pi, k))
+                polys.append(c + rng.uniform(0.1, 0.6) * np.column_stack([np.cos(ang),
+                                                                          np.sin(ang)]))
+        want = shapely.union_all([shapely.Polygon(p) for p in polys]).covers(shapely.Polygon(g))
+        got = _cover(g, polys)
+        assert got == want, trial
+        verdicts.append(got)
+    assert 0.2 < np.mean(verdicts) < 0.8
+
+
+def test_a_crack_between_two_faces_is_not_covered():
+    """Two squares 1e-6 apart leave a crack through the polygon: not covered; touching, they
+    cover it."""
+    g = np.array([[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]])
+    left = np.array([[-1, -1], [0, -1], [0, 1], [-1, 1]], float)
+    for gap, want in ((1e-6, False), (0.0, True)):
+        right = np.array([[gap, -1], [1, -1], [1, 1], [gap, 1]], float)
+        assert _cover(g, [left, right]) is want
+
+
+def test_the_renderer_culls_back_faces():
+    """From inside a closed mesh cube a sphere outside is seen: its faces are drawn only from
+    their front, as the occlusion proof assumes."""
+    xml = """<mujoco><asset><mesh name="cube" vertex="-1 -1 -1 1 -1 -1 -1 1 -1 1 1 -1
+    -1 -1 1 1 -1 1 -1 1 1 1 1 1"/></asset><worldbody><light pos="0 0 5"/>
+    <geom type="mesh" mesh="cube" rgba="0 0 1 1" contype="0" conaffinity="0"/>
+    <geom type="sphere" size="0.3" pos="3 0 0" rgba="1 0 0 1"/>
+    <camera name="c" pos="0 0 0" xyaxes="0 -1 0 0 0 1"/></worldbody></mujoco>"""
+    m = mujoco.MjModel.from_xml_string(xml)
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    with mujoco.Renderer(m, 32, 32) as r:
+        r.enable_segmentation_rendering()
+        r.update_scene(d, "c")
+        assert r.render()[16, 16, 0] == 1  # the sphere (geom 1), not the cube around the eye
+
+
+def _views(camera, data, x, y):
+    spec = camera.spec
+    for h in range(12):
+        for t in range(spec.tilt_min_deg, spec.tilt_max_deg + 1, spec.tilt_step_deg):
+            yield Pose(x, y, h, t)
 
 
 @pytest.mark.parametrize("variant_id", ["kitchen_galley-l1-m1", "study_office-l1-m1"])
-def test_verdict_is_that_of_every_ray(world, variant_id, monkeypatch):
-    """With the target in each fall zone (and a mesh distractor beside it), from random eyes
-    across the room: the same verdict as casting all nine rays, with fewer casts."""
+def test_no_view_from_a_hidden_eye_shows_the_object(world, variant_id):
+    """With the object in each fall zone (a book beside it), from random eyes at the camera's
+    height: wherever the proof says hidden, every view (12 headings, 7 tilts) rendered in full
+    shows no pixel of the object; and it says so for a good share of the eyes that see
+    nothing. A wrong proof, in which faces behind the object hide it too, is refuted by the
+    renderer."""
     rng = np.random.default_rng(5)
     v = world.variant(variant_id)
     lx, ly, _ = v.size_m
@@ -64,37 +115,37 @@ def test_verdict_is_that_of_every_ray(world, variant_id, monkeypatch):
     book = world.categories.instance("book", world.categories.categories["book"].variants[0].name,
                                      next(iter(world.categories.categories["book"]
                                                .variants[0].materials)))
-    casts = [0]
-    cast = mujoco.mj_ray
-
-    def counted(*a):
-        casts[0] += 1
-        return cast(*a)
-
-    monkeypatch.setattr(sight.mujoco, "mj_ray", counted)
-    verdicts, blocked, blocked_casts = [], 0, 0
-    for zone in v.zones:
+    spec = AgentSpec()
+    hidden = blind = refuted = 0
+    for zone in v.zones[::2]:
         c = zone.volume.center
         pos = (float(c[0]), float(c[1]), float(zone.volume.zmin) + 0.03)
         objs = [PlacedObject("target", cup, pos, free=False),
                 PlacedObject("d0", book, (pos[0] + 0.15, pos[1], pos[2] + 0.05), free=False)]
-        scene = build_scene(v, world.materials, objs)
+        scene = build_scene(v, world.materials, objs, settings=LOOK)
         d = scene.data()
         mujoco.mj_forward(scene.model, d)
-        m = scene.model
-        lo, hi = _target_box(scene, d)
-        centre = (lo + hi) / 2
-        points = np.vstack([centre, centre + 0.75 * BOX_SIGNS * (hi - lo) / 2])
-        for _ in range(40):
-            eye = np.array([rng.uniform(0.2, lx - 0.2), rng.uniform(0.2, ly - 0.2),
-                            AgentSpec().camera_height_m])
-            ref = _every_ray(m, d, scene.geom_owner, eye, points)
-            before = casts[0]
-            got = line_of_sight(m, d, scene.geom_owner, eye, points, (lo, hi))
-            assert got == ref, (zone.id, eye)
-            verdicts.append(got)
-            if not got:
-                blocked += 1
-                blocked_casts += casts[0] - before
-    assert 0.1 < np.mean(verdicts) < 0.9
-    assert blocked_casts < 0.5 * len(points) * blocked  # most blocked rays are not cast
+        corners = target_corners(scene, d)
+        occ = Occluders(scene.model, d, scene.object_body["target"], corners)
+        wrong = Occluders(scene.model, d, scene.object_body["target"], corners, behind_m=-10.0)
+        camera = EgoCamera(scene, {"target": "cup", "d0": "book"}, spec)
+        try:
+            for _ in range(12):
+                x, y = rng.uniform(0.2, lx - 0.2), rng.uniform(0.2, ly - 0.2)
+                if math.hypot(x - pos[0], y - pos[1]) > 2.5:
+                    continue
+                eye = np.array([x, y, spec.camera_height_m])
+                says, wrong_says = occ.hide(eye), wrong.hide(eye)
+                if not (says or wrong_says):
+                    continue
+                pixels = sum(camera.pixels_of(d, p) for p in _views(camera, d, x, y))
+                if says:
+                    assert pixels == 0, (zone.id, x, y)
+                    hidden += 1
+                if wrong_says and pixels > 0:
+                    refuted += 1
+                blind += pixels == 0
+        finally:
+            camera.close()
+    assert hidden >= 10 and hidden >= 0.5 * blind, (hidden, blind)
+    assert refuted >= 1

@@ -77,6 +77,12 @@ STEP_SAMPLES = int(round(STEP_M / 0.05)) + 1
 STEP_FRACTIONS = np.linspace(0.0, 1.0, STEP_SAMPLES)
 
 
+def horizontal_distance_m(pose: Pose, target_xy) -> float:
+    """The judge's distance: horizontal, from ``pose`` to ``target_xy`` (the object's
+    centre)."""
+    return float(np.linalg.norm(pose.xy - np.asarray(target_xy, float)[:2]))
+
+
 def heading_vector(heading: int) -> np.ndarray:
     return HEADING_VECTORS[heading % HEADINGS]
 
@@ -118,7 +124,9 @@ class Outcome:
     success: bool
     found_called: bool
     distance_m: float  # horizontal, final pose to the object
-    visible: bool
+    #: the judge's visibility verdict at the last claim (None: no claim was made within reach,
+    #: where the judge does not ask)
+    visible: bool | None
     n_actions: int
     path_m: float
     poses: tuple[Pose, ...]  # after each action, the start first
@@ -166,12 +174,12 @@ class Walk:
         self.n_actions = 0
         self.claims = 0
         self.success = False
+        self.seen_at_claim: bool | None = None
         self.done = False
 
     def distance_m(self, pose: Pose | None = None) -> float:
         """Horizontal distance from ``pose`` (default: the current one) to the object."""
-        p = self.pose if pose is None else pose
-        return float(np.linalg.norm(p.xy - self.target_xy))
+        return horizontal_distance_m(self.pose if pose is None else pose, self.target_xy)
 
     def act(self, action: int) -> bool:
         """Execute ``action``; whether it moved, turned or tilted as asked (see :func:`step`).
@@ -187,15 +195,17 @@ class Walk:
         self.poses.append(nxt)
         if a == FOUND:
             self.claims += 1
-            if self.distance_m() <= SUCCESS_DISTANCE_M and self.visible(nxt):
-                self.success = True
+            self.seen_at_claim = None
+            if self.distance_m() <= SUCCESS_DISTANCE_M:
+                self.seen_at_claim = bool(self.visible(nxt))
+                self.success = self.seen_at_claim
             self.done = self.success or self.claims >= self.claims_allowed
         if self.n_actions >= self.max_actions:
             self.done = True
         return ok
 
     def outcome(self) -> Outcome:
-        return Outcome(self.success, self.claims > 0, self.distance_m(), self.success,
+        return Outcome(self.success, self.claims > 0, self.distance_m(), self.seen_at_claim,
                        self.n_actions, self.path_m, tuple(self.poses), self.claims)
 
 

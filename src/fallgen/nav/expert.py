@@ -1,42 +1,49 @@
-"""The expert: shortest action sequences in the agent's own motion lattice.
+"""The expert: shortest action sequences in the agent's own motion lattice, to the real
+success set.
 
-From the start pose, ``move_forward`` (0.25 m along one of 12 headings) and the two turns span
-a lattice of poses; positions are merged into 5 cm bins per heading (the first, cheapest pose to
-reach a bin represents it). A bucket-queue Dijkstra over this lattice (compiled with Numba:
-:mod:`fallgen.nav.lattice`) finds, for a cost per forward move and per turn, the cheapest pose
-from which the object can be seen; the tilt steps that centre it vertically and ``found``
-complete the sequence.
+From the start pose, ``move_forward`` (0.25 m along one of 12 headings), the two turns and the
+two tilts span the agent's pose lattice, taken exactly (no binning: :mod:`fallgen.nav.lattice`
+keys every position by its four integer lattice coordinates). A pose is a goal when ``found``
+there succeeds, as the judge (:class:`fallgen.nav.agent.Walk`) rules: the object's centre
+within ``SUCCESS_DISTANCE_M`` horizontally (the judge's own distance) and ``visible(pose)`` (the
+renderer's segmentation count, at least ``VISIBLE_PIXELS``). Tilts commute with every other
+action, so a plan tilts last, by the fewest steps that bring the object into view.
 
-A goal pose: horizontal distance to the object at most ``SUCCESS_DISTANCE_M`` - 0.1 m, the
-object within the horizontal field of view less a 10 degree margin, and a clear line of sight
-from the camera (``line_of_sight(pose)``); candidates are confirmed in cost order by
-``visible(pose)`` (the renderer's segmentation count), so the expert never ends where it cannot
-actually see the object.
+Two A* searches, each exact for its costs:
 
-Two searches: forward moves first, turns second (cost 1000 per move, 1 per turn: the expert's
-own path, the shortest l of SPL, so the expert's SPL is 1), and fewest actions (1 and 1: n* of
-SNA).
+- forward moves first, then turns and tilts (cost 1000 per move, 1 per turn and tilt step):
+  the expert's own plan; its forward moves times 0.25 m are l of SPL, the shortest path to any
+  pose from which ``found`` succeeds;
+- fewest actions (1 each): n* of SNA, ``found`` included.
+
+A candidate pose is rendered only when no cheaper one can remain (cost order), and only at the
+tilts whose view frustum can hold the object (:func:`fallgen.nav.lattice.tilt_bound`); so the
+references are exact over the renderer's verdicts, and the expert's SPL is 1. Its SNA is 1
+where its plan (fewest moves first) also has the fewest actions, below 1 where fewer actions
+need more moves (``tests/nav`` checks both searches against a brute-force breadth-first search).
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
-from fallgen.nav.agent import (DOWN, FORWARD, FOUND, HEADING_VECTORS, HEADINGS, LEFT, RIGHT,
+from fallgen.nav.agent import (DOWN, FORWARD, FOUND, HEADING_VECTORS, LEFT, MAX_ACTIONS, RIGHT,
                                STEP_FRACTIONS, STEP_M, SUCCESS_DISTANCE_M, TURN_DEG, UP,
-                               AgentSpec, Pose)
-from fallgen.nav.lattice import Lattice, trace
+                               AgentSpec, Pose, horizontal_distance_m)
+from fallgen.nav.lattice import Lattice, LatticeFull, trace
 from fallgen.nav.occupancy import OccupancyGrid
 
-BIN_M = 0.05
 FOV_DEG = 90.0
-MARGIN_DEG = 10.0
-#: Candidate poses checked with the renderer before giving up.
-MAX_RENDER_CHECKS = 200
+#: ``may_see(pose, tilts)``: for each tilt (degrees) of the pose's position and heading,
+#: whether the object can be visible there at all (False only where it cannot).
+MaySee = Callable[[Pose, list[int]], "list[bool] | np.ndarray"]
+#: Renderer verdicts one search may ask for before it gives up (:class:`SearchLimit`).
+MAX_VISIBILITY_CHECKS = 10**9
+#: Lattice states one search may enter before it gives up (about 80 bytes each).
+MAX_STATES = 4_000_000
 
 
 @dataclass(frozen=True)
@@ -44,96 +51,132 @@ class Plan:
     actions: tuple[int, ...]
     goal: Pose
     path_m: float
-    renders: int  # visibility checks made
+    renders: int  # visibility verdicts asked for
 
 
 class NoPath(RuntimeError):
     """No pose from which the object is visible can be reached."""
 
 
-def _search(start: Pose, grid: OccupancyGrid, target, spec: AgentSpec, move_cost: int,
-            turn_cost: int, line_of_sight: Callable[[Pose], bool],
-            visible: Callable[[Pose], bool], max_view_m: float) -> tuple[Plan, int]:
-    nbx = int(math.ceil(grid.shape[0] * grid.resolution / BIN_M)) + 1
-    nby = int(math.ceil(grid.shape[1] * grid.resolution / BIN_M)) + 1
-    size = nbx * nby * HEADINGS
+class SearchLimit(NoPath):
+    """The search gave up (:data:`MAX_VISIBILITY_CHECKS`, :data:`MAX_STATES`) before it could
+    prove its answer optimal."""
+
+
+def fewest_tilts(pose: Pose, at_least: int, spec: AgentSpec, visible: Callable[[Pose], bool],
+                 may_see: MaySee | None = None) -> tuple[int | None, int]:
+    """The signed fewest tilt steps (at least ``at_least``) from ``pose`` after which
+    ``visible`` holds, the lower tilt first on ties; None if no tilt within the limits does.
+    ``may_see``: which tilts ``visible`` can hold at, at most (the others are not asked).
+    Also the number of verdicts asked for."""
+    order = []
+    for m in range(at_least, (spec.tilt_max_deg - spec.tilt_min_deg) // spec.tilt_step_deg + 1):
+        for sign in ((-1, 1) if m else (1,)):
+            t = pose.tilt_deg + sign * m * spec.tilt_step_deg
+            if spec.tilt_min_deg <= t <= spec.tilt_max_deg:
+                order.append((sign * m, t))
+    if may_see is not None and order:
+        keep = may_see(pose, [t for _, t in order])
+        order = [o for o, k in zip(order, keep) if k]
+    asked = 0
+    for steps, t in order:
+        asked += 1
+        if visible(Pose(pose.x, pose.y, pose.heading, t)):
+            return steps, asked
+    return None, asked
+
+
+@dataclass(frozen=True)
+class Limits:
+    """How much one search may do before it gives up (:class:`SearchLimit`): renderer
+    verdicts asked for, lattice states entered."""
+
+    verdicts: int = MAX_VISIBILITY_CHECKS
+    states: int = MAX_STATES
+
+
+def _search(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray, spec: AgentSpec,
+            move_cost: int, turn_cost: int, visible: Callable[[Pose], bool],
+            limits: Limits, may_see: MaySee | None) -> tuple[Plan, int]:
     # the occupancy table of the simulator's check, with a border for "outside the grid"
     # (clearance 0 there, as grid.clearance_at has it)
     ok = np.full((grid.shape[0] + 2, grid.shape[1] + 2), 0.0 >= spec.radius_m)
     ok[1:-1, 1:-1] = grid.clearance >= spec.radius_m
-    lat = Lattice(size=size, nby=nby, ok=ok, resolution=grid.resolution, bin_m=BIN_M,
-                  step_m=STEP_M, step_fractions=STEP_FRACTIONS, heading_vectors=HEADING_VECTORS,
-                  turn_deg=TURN_DEG, target=target, camera_height_m=spec.camera_height_m,
-                  reach_m=SUCCESS_DISTANCE_M - 0.1, max_view_m=max_view_m,
-                  half_fov_deg=FOV_DEG / 2 - MARGIN_DEG, move_cost=move_cost,
-                  turn_cost=turn_cost, tilt_deg=start.tilt_deg, tilt_min_deg=spec.tilt_min_deg,
+    target_xy = np.asarray(target, float)[:2]
+    tilt_cost = min(move_cost, turn_cost)
+    lat = Lattice(ok=ok, resolution=grid.resolution, step_m=STEP_M,
+                  step_fractions=STEP_FRACTIONS, heading_vectors=HEADING_VECTORS,
+                  turn_deg=TURN_DEG, target_xy=target_xy, corners=corners,
+                  camera_height_m=spec.camera_height_m, reach_m=SUCCESS_DISTANCE_M,
+                  half_fov_deg=FOV_DEG / 2, move_cost=move_cost, turn_cost=turn_cost,
+                  tilt_cost=tilt_cost, tilt_deg=start.tilt_deg, tilt_min_deg=spec.tilt_min_deg,
                   tilt_max_deg=spec.tilt_max_deg, tilt_step_deg=spec.tilt_step_deg,
-                  actions=(FORWARD, LEFT, RIGHT))
-    s0 = lat.start(start.x, start.y, start.heading)
+                  actions=(FORWARD, LEFT, RIGHT), max_actions=MAX_ACTIONS)
+    lat.start(start.x, start.y, start.heading)
+    confirmed: dict[int, int] = {}  # state -> its signed tilt steps, once rendered
     renders = 0
-    result = None
-    while result is None:
-        # candidates whose total is below every unexpanded cost, cheapest first: each is
-        # confirmed by rendering (a refused one is dropped and the search goes on)
-        batch = lat.advance()
-        if len(batch) == 0:
-            break
-        for total, s, t in batch.tolist():
-            if renders >= MAX_RENDER_CHECKS:
-                break
-            # the line of sight is checked only now, for candidates in cost order (ray casts
-            # for every candidate found would cost more than the whole search)
-            pose = Pose(float(lat.px[s]), float(lat.py[s]), s % HEADINGS, start.tilt_deg)
-            if not line_of_sight(pose):
+    while True:
+        try:
+            cand = lat.next_candidate(limits.states)
+        except LatticeFull as e:
+            raise SearchLimit(f"gave up after {renders} verdicts: {e}") from None
+        if cand is None:
+            raise NoPath(f"no reachable pose sees the object ({renders} views rendered, "
+                         f"{lat.states} poses searched)")
+        total, s, bound = cand
+        pose = Pose(float(lat.px[s]), float(lat.py[s]), lat.heading(s), start.tilt_deg)
+        t = confirmed.get(s)
+        if t is None:
+            if horizontal_distance_m(pose, target_xy) > SUCCESS_DISTANCE_M:
+                continue  # within the search's rounding slack, outside the judge's reach
+            if renders >= limits.verdicts:
+                raise SearchLimit(f"gave up after {renders} views rendered, {lat.states} "
+                                  "poses searched")
+            t, asked = fewest_tilts(pose, bound, spec, visible, may_see)
+            renders += asked
+            if t is None:
                 continue
-            goal = Pose(pose.x, pose.y, pose.heading, start.tilt_deg + t * spec.tilt_step_deg)
-            renders += 1
-            if visible(goal):
-                result = (total, s, t, goal)
-                break
-        if renders >= MAX_RENDER_CHECKS and result is None:
-            break  # no candidate is rendered any more: none can be confirmed
-    if result is None:
-        raise NoPath(f"no reachable pose sees the object ({renders} candidate poses rendered)")
-    total, s, t, goal = result
-    moves = trace(lat.act, lat.parent, s0, s)
-    actions = moves + [UP if t > 0 else DOWN] * abs(t) + [FOUND]
-    path = moves.count(FORWARD) * STEP_M
-    return Plan(tuple(actions), goal, path, renders), total
+            if abs(t) > bound:  # dearer than its bound: back in line at its exact total
+                confirmed[s] = t
+                lat.offer(total + (abs(t) - bound) * tilt_cost, s, t)
+                continue
+        goal = Pose(pose.x, pose.y, pose.heading, start.tilt_deg + t * spec.tilt_step_deg)
+        moves = trace(lat.act, lat.parent, s)
+        actions = moves + [UP if t > 0 else DOWN] * abs(t) + [FOUND]
+        plan = Plan(tuple(actions), goal, moves.count(FORWARD) * STEP_M, renders)
+        return plan, total
 
 
 @dataclass(frozen=True)
 class Expert:
-    plan: Plan  # the expert's actions (fewest forward moves, then fewest turns)
+    plan: Plan  # the expert's actions (fewest forward moves, then fewest other actions)
     shortest_m: float  # l of SPL
     fewest_actions: int  # n* of SNA
 
 
-def expert(start: Pose, grid: OccupancyGrid, target, line_of_sight: Callable[[Pose], bool],
+def expert(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray,
            visible: Callable[[Pose], bool], spec: AgentSpec = AgentSpec(),
-           max_view_m: float = math.inf) -> Expert:
-    """Plan the expert's action sequence from ``start`` to a pose that sees ``target`` (the
-    object's centre, room frame), and the optimum references of SPL and SNA. Poses farther
-    than ``max_view_m`` from the object (camera to centre) are not tried: a small object there
-    covers too few pixels to be seen (see :func:`max_view_distance`)."""
-    plan = plan_to_see(start, grid, target, line_of_sight, visible, spec, max_view_m)
-    fewest, _ = _search(start, grid, target, spec, 1, 1, line_of_sight, visible, max_view_m)
-    return Expert(plan, plan.path_m, min(len(fewest.actions), len(plan.actions)))
+           limits: Limits = Limits(), may_see: MaySee | None = None) -> Expert:
+    """Plan the expert's action sequence from ``start`` to a pose from which ``found``
+    succeeds on the object centred at ``target`` (room frame; ``corners``: points (N, 3) whose
+    hull holds it, for the frustum test), and the optimum references of SPL and SNA.
+    ``may_see``: a bound that spares ``visible`` the views that cannot show the object."""
+    plan = plan_to_see(start, grid, target, corners, visible, spec, limits, may_see)
+    fewest, total = _search(start, grid, target, corners, spec, 1, 1, visible, limits,
+                            may_see)
+    if total != len(fewest.actions) or total > len(plan.actions):
+        raise AssertionError(f"fewest-actions search: {total} actions, plan "
+                             f"{len(fewest.actions)}, expert {len(plan.actions)}")
+    return Expert(plan, plan.path_m, total)
 
 
-def plan_to_see(start: Pose, grid: OccupancyGrid, target, line_of_sight: Callable[[Pose], bool],
+def plan_to_see(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray,
                 visible: Callable[[Pose], bool], spec: AgentSpec = AgentSpec(),
-                max_view_m: float = math.inf) -> Plan:
-    """The expert's own plan from ``start`` (fewest forward moves, then fewest turns; the
-    first search of :func:`expert`), without the fewest-actions search."""
-    plan, _ = _search(start, grid, target, spec, 1000, 1, line_of_sight, visible, max_view_m)
+                limits: Limits = Limits(), may_see: MaySee | None = None) -> Plan:
+    """The expert's own plan from ``start`` (fewest forward moves, then fewest turns and
+    tilts; the first search of :func:`expert`), without the fewest-actions search."""
+    plan, _ = _search(start, grid, target, corners, spec, 1000, 1, visible, limits, may_see)
+    if len(plan.actions) > MAX_ACTIONS:
+        raise NoPath(f"the shortest plan takes {len(plan.actions)} actions, more than "
+                     f"{MAX_ACTIONS}")
     return plan
-
-
-def max_view_distance(extents_m, pixels: int, image_px: int = 300) -> float:
-    """Distance beyond which an object with bounding-box ``extents_m`` covers fewer than
-    ``pixels`` pixels of a ``FOV_DEG`` camera, ``image_px`` wide, even seen broadside (its two
-    largest extents as a rectangle, small-angle projection)."""
-    e = np.sort(np.asarray(extents_m, float))[::-1]
-    rad_per_px = math.radians(FOV_DEG) / image_px
-    return float(math.sqrt(e[0] * e[1] / pixels) / rad_per_px)

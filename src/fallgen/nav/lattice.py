@@ -1,19 +1,27 @@
-"""The expert's lattice search, compiled (Numba): a bucket-queue Dijkstra over the agent's own
-motion lattice, run until candidate goal poses are ready to be confirmed.
+"""The expert's search, compiled (Numba): A* over the agent's exact motion lattice, run until
+the cheapest goal candidate is final.
 
-:func:`fallgen.nav.expert._search` owns the search's arrays (:class:`Lattice`) and asks
-:func:`advance` for the next batch of candidates, in cost order; it checks each with ray casts
-and a render (Python callbacks, which compiled code cannot call) and calls :func:`advance`
-again when all of a batch were refused. The search itself (states, costs, the 5 cm bins and
-which pose represents one, parents, the forward moves' collision checks, the goal test and
-the tilt choice) is :mod:`fallgen.nav.expert`'s design, step for step: the same IEEE
-operations in the same order, so the same plans as the vectorised NumPy form it replaced
-(``tests/nav`` keeps that form as its reference).
+Positions are not binned. A forward move adds 0.25 m along one of 12 headings, so every pose
+the agent can reach lies at ``start + (a + b sqrt 3) / 8`` in x and ``(c + d sqrt 3) / 8`` in y
+for integers a, b, c, d (cos and sin of multiples of 30 degrees are 0, +-1/2, +-sqrt(3)/2 and
++-1): two action sequences reach the same position exactly when they give the same four
+integers, whatever their order. A state is those four integers and the heading
+(:func:`pack`), kept in an open-addressing hash table; its float position is the one the
+action simulator computes along the state's cheapest path (the same IEEE operations in the same
+order: ``x + STEP * cos``, then the move's checks at ``x0 + f * (x1 - x0)``).
 
-A state is ``bin * HEADINGS + heading`` with ``bin = floor(x / BIN_M) * nby + floor(y / BIN_M)``
-(:func:`state_of`). Buckets (states by cost) are a ring of linked lists, one slot per cost, each
-sorted by state when it is expanded; found candidates (by total cost, state, tilt steps) are a
-binary heap of int64 keys.
+The search is A* with a consistent heuristic (the forward moves that the straight-line
+distance to the success disk still needs, times the move's cost), so each state is expanded
+once, at its optimal cost. A state within reach of the object whose view frustum can hold the
+object at some tilt is a goal candidate, entered with a lower bound of its total (cost, the
+tilt steps to the nearest tilt whose frustum holds the object, ``found``). A candidate is final
+when no open state can lead to a cheaper one (its total is at most the lowest open cost plus
+``found``); :meth:`Lattice.next_candidate` returns final candidates in total order, and the
+caller (:mod:`fallgen.nav.expert`) confirms each with the renderer, or re-enters it with its
+exact tilt cost, or drops it.
+
+The arrays grow on demand: the compiled loop stops with :data:`GROW` when a table is nearly
+full and :class:`Lattice` enlarges it.
 """
 
 from __future__ import annotations
@@ -23,49 +31,97 @@ import math
 import numpy as np
 from numba import njit
 
-#: ``tilt`` value of a pose whose tilt limits cannot centre the object.
-NO_TILT = np.iinfo(np.int64).min
-#: Offset and span of the tilt steps in a found candidate's key.
+#: Offset and span of each lattice coordinate in a packed key (|a|..|d| < 1024: 200 moves).
+_OFF, _SPAN = 1024, 2048
+#: Return codes of :func:`_run`.
+FINAL, EXHAUSTED, GROW = 0, 1, 2
+#: Tilt steps in a candidate key: offset and span.
 _T_OFF, _T_SPAN = 32, 64
+#: Candidate keys: total * _C_TOTAL + state * _T_SPAN + tilt steps + _T_OFF
+_C_TOTAL = 1 << 37
+#: Open keys: f * _O_F + state
+_O_F = 1 << 31
 #: Indices into the float parameters.
-(P_STEP, P_BIN, P_RES, P_REACH, P_VIEW, P_HALF_FOV, P_TURN_DEG, P_TX, P_TY, P_TZ,
- P_CAMERA) = range(11)
+(P_STEP, P_RES, P_REACH, P_TX, P_TY, P_CAMERA, P_TURN_RAD, P_TAN, P_SLACK) = range(9)
 #: Indices into the integer parameters.
-(I_NBY, I_SIZE, I_MOVE, I_TURN, I_TILT_MIN, I_TILT_MAX, I_TILT_STEP, I_TILT0, I_HI0,
- I_HI1, I_FORWARD, I_LEFT, I_RIGHT, I_HEADINGS) = range(14)
-#: Indices into the counters: live bucket entries, entries made, lowest cost that may hold
-#: one, pending forward moves, found heap size, forward batch stamp.
-C_LIVE, C_ENTRIES, C_LOW, C_PENDING, C_FOUND, C_STAMP = range(6)
+(I_MOVE, I_TURN, I_TILT_COST, I_TILT0, I_TILT_MIN, I_TILT_MAX, I_TILT_STEP, I_HI0, I_HI1,
+ I_FORWARD, I_LEFT, I_RIGHT, I_MAX_ACTIONS, I_HEADINGS) = range(14)
+#: Counters: states, open heap size, candidate heap size, hash slots used.
+C_STATES, C_OPEN, C_FOUND, C_USED = range(4)
+
+#: The 12 headings' unit steps as lattice coordinates (a, b, c, d): 0.25 (cos, sin) of
+#: 30 k degrees = ((a + b sqrt 3) / 8, (c + d sqrt 3) / 8).
+LATTICE_STEPS = np.array([
+    (2, 0, 0, 0), (0, 1, 1, 0), (1, 0, 0, 1), (0, 0, 2, 0), (-1, 0, 0, 1), (0, -1, 1, 0),
+    (-2, 0, 0, 0), (0, -1, -1, 0), (-1, 0, 0, -1), (0, 0, -2, 0), (1, 0, 0, -1), (0, 1, -1, 0),
+], np.int64)
 
 
 @njit(cache=True)
-def _enter(head, nxt, states, counts, cost, s):
-    """Put state ``s`` into the bucket of ``cost`` (a ring of buckets, one per cost: the live
-    costs span less than the ring, see :func:`_lowest`)."""
-    e = counts[C_ENTRIES]
-    if e >= len(states):
-        raise RuntimeError("lattice search: more bucket entries than its bound")
-    slot = cost % len(head)
-    states[e], nxt[e] = s, head[slot]
-    head[slot] = e
-    counts[C_ENTRIES] = e + 1
-    counts[C_LIVE] += 1
-    counts[C_LOW] = min(counts[C_LOW], cost)
+def pack(a, b, c, d, heading, headings):
+    """The hash key of lattice position (a, b, c, d) with ``heading``."""
+    return (((((a + _OFF) * _SPAN + (b + _OFF)) * _SPAN + (c + _OFF)) * _SPAN + (d + _OFF))
+            * headings + heading)
 
 
 @njit(cache=True)
-def _lowest(head, counts):
-    """The lowest cost with a live bucket (-1 if none). The live costs always lie within a
-    move and a turn of each other (a bucket's expansion enters costs at most a move above it,
-    and pending moves are made once a turn could cost as much), so one ring slot per cost
-    over that span holds every live bucket alone; :func:`advance` checks it."""
-    if counts[C_LIVE] == 0:
-        return -1
-    c = counts[C_LOW]
-    while head[c % len(head)] < 0:
-        c += 1
-    counts[C_LOW] = c
-    return c
+def free_at(ok, res, hi0, hi1, x, y):
+    """The occupancy table ``ok`` (a border of "outside" around the grid) at (x, y)."""
+    fi = min(max(np.floor(x / res), -1.0), hi0 - 1.0)
+    fj = min(max(np.floor(y / res), -1.0), hi1 - 1.0)
+    return ok[int(fi) + 1, int(fj) + 1]
+
+
+@njit(cache=True)
+def outside_view(corners, x, y, yaw, tilt_rad, camera, tan_half, slack):
+    """Whether every point of ``corners`` (N, 3) is beyond one side of the view frustum of the
+    camera at (x, y, ``camera``) looking along ``yaw`` and ``tilt_rad`` (a free camera: its
+    right vector horizontal), the frustum's half-width ``tan_half`` with ``slack`` metres of
+    margin: then no pixel of the view can show them."""
+    ct, st = math.cos(tilt_rad), math.sin(tilt_rad)
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    f0, f1, f2 = ct * cy, ct * sy, st
+    r0, r1 = sy, -cy
+    u0, u1, u2 = r1 * f2, -r0 * f2, r0 * f1 - r1 * f0
+    behind = left = right = above = below = True
+    for i in range(corners.shape[0]):
+        dx, dy, dz = corners[i, 0] - x, corners[i, 1] - y, corners[i, 2] - camera
+        vx = dx * r0 + dy * r1
+        vy = dx * u0 + dy * u1 + dz * u2
+        vz = dx * f0 + dy * f1 + dz * f2
+        lim = tan_half * vz + slack
+        behind = behind and vz < -slack
+        right = right and vx > lim
+        left = left and -vx > lim
+        above = above and vy > lim
+        below = below and -vy > lim
+    return behind or left or right or above or below
+
+
+@njit(cache=True)
+def tilt_bound(corners, x, y, heading, fp, ip):
+    """The fewest tilt steps from the start's tilt to a tilt whose frustum can hold the
+    object from (x, y, ``heading``); -1 if none can."""
+    best = -1
+    t = ip[I_TILT_MIN]
+    while t <= ip[I_TILT_MAX]:
+        n = abs(t - ip[I_TILT0]) // ip[I_TILT_STEP]
+        if best < 0 or n < best:
+            if not outside_view(corners, x, y, heading * fp[P_TURN_RAD], math.radians(t),
+                                fp[P_CAMERA], fp[P_TAN], fp[P_SLACK]):
+                best = n
+        t += ip[I_TILT_STEP]
+    return best
+
+
+@njit(cache=True)
+def moves_to_reach(x, y, fp):
+    """Forward moves that (x, y) needs at least to come within reach of the object: each
+    move shortens the straight-line distance by at most a step."""
+    d = math.hypot(fp[P_TX] - x, fp[P_TY] - y) - fp[P_REACH]
+    if d <= 0.0:
+        return 0
+    return int(math.ceil(d / fp[P_STEP] - 1e-9))
 
 
 @njit(cache=True)
@@ -103,233 +159,237 @@ def _pop(h, n):
 
 
 @njit(cache=True)
-def free_at(ok, res, hi0, hi1, x, y):
-    """The occupancy table ``ok`` (a border of "outside" around the grid) at (x, y)."""
-    fi = min(max(np.floor(x / res), -1.0), hi0 - 1.0)
-    fj = min(max(np.floor(y / res), -1.0), hi1 - 1.0)
-    return ok[int(fi) + 1, int(fj) + 1]
+def _slot(hkeys, key):
+    """The hash slot of ``key``: where it is, or the empty slot where it would go."""
+    mask = len(hkeys) - 1
+    i = ((key * 0x5851F42D4C957F2D) >> 17) & mask
+    while hkeys[i] != -1 and hkeys[i] != key:
+        i = (i + 1) & mask
+    return i
 
 
 @njit(cache=True)
-def tilt_step(dist, tz, camera, tilt0, tilt_min, tilt_max, tilt_step_deg, half_fov):
-    """Signed tilt steps from ``tilt0`` that bring an object at horizontal distance ``dist``
-    and height ``tz`` nearest the view centre within ``half_fov`` (the lowest tilt on ties),
-    ``NO_TILT`` if none can."""
-    elev = math.degrees(math.atan2(tz - camera, max(dist, 1e-6)))
-    best_off = math.inf
-    best = 0
-    t = tilt_min
-    while t <= tilt_max:
-        off = abs(elev - t)
-        if off > half_fov:
-            off = math.inf
-        if off < best_off:
-            best_off, best = off, t
-        t += tilt_step_deg
-    if not best_off < math.inf:
-        return NO_TILT
-    return (best - tilt0) // tilt_step_deg
+def rehash(hkeys, hval, size):
+    """A hash table of ``size`` slots holding the entries of (``hkeys``, ``hval``)."""
+    nk = np.full(size, -1, np.int64)
+    nv = np.empty(size, np.int32)
+    for i in range(len(hkeys)):
+        if hkeys[i] != -1:
+            j = _slot(nk, hkeys[i])
+            nk[j], nv[j] = hkeys[i], hval[i]
+    return nk, nv
 
 
 @njit(cache=True)
-def state_of(x, y, heading, bin_m, nby, headings):
-    """The state of a pose at (x, y) with ``heading``: its 5 cm bin times the headings, plus
-    the heading (out of range for a pose outside the grid's bins)."""
-    return (np.int64(np.floor(x / bin_m)) * nby + np.int64(np.floor(y / bin_m))) * headings \
-        + heading
+def _reach(cost, x1, y1, parent, action, lat, g, px, py, par, act, nact, closed, hkeys,
+           hval, oheap, counts, fp, ip, move_cost):
+    """Offer state (lattice coordinates ``lat``, heading) at ``cost`` from ``parent``."""
+    key = pack(lat[0], lat[1], lat[2], lat[3], lat[4], ip[I_HEADINGS])
+    j = _slot(hkeys, key)
+    if hkeys[j] == -1:
+        s = counts[C_STATES]
+        counts[C_STATES] = s + 1
+        hkeys[j], hval[j] = key, s
+        counts[C_USED] += 1
+        g[s] = np.iinfo(np.int64).max
+        closed[s] = False
+    else:
+        s = hval[j]
+    if closed[s] or g[s] <= cost:
+        return
+    g[s], px[s], py[s], par[s], act[s] = cost, x1, y1, parent, action
+    nact[s] = nact[parent] + 1
+    f = cost + move_cost * moves_to_reach(x1, y1, fp)
+    n = _push(oheap, counts[C_OPEN], f * _O_F + s)
+    counts[C_OPEN] = n
 
 
 @njit(cache=True)
-def _move_forward(best, px, py, parent, act, mark, head, nxt, entries, pend_cost, pend_state,
-                  pend_x, pend_y, counts, ok, dirs, fracs, fp, ip):
-    """Every pending forward move, in the order the moves were queued (cost, then state): a
-    bin's state goes to the first move that reaches it, if that lowers its cost."""
-    size, nby, headings = ip[I_SIZE], ip[I_NBY], ip[I_HEADINGS]
-    step, binm, res = fp[P_STEP], fp[P_BIN], fp[P_RES]
-    hi0, hi1 = ip[I_HI0], ip[I_HI1]
-    stamp = counts[C_STAMP] + 1
-    counts[C_STAMP] = stamp
-    for j in range(counts[C_PENDING]):
-        st = pend_state[j]
-        k = st % headings
-        x0, y0 = pend_x[j], pend_y[j]
-        x1 = x0 + step * dirs[k, 0]
-        y1 = y0 + step * dirs[k, 1]
+def _run(g, px, py, par, act, nact, closed, coords, hkeys, hval, oheap, fheap, counts, ok,
+         dirs, fracs, steps, corners, fp, ip):
+    """Expand states until the cheapest candidate is final (FINAL: it is at the top of the
+    candidate heap), the lattice is exhausted (EXHAUSTED) or a table needs room (GROW)."""
+    move, turn, headings = ip[I_MOVE], ip[I_TURN], ip[I_HEADINGS]
+    hi0, hi1, res = ip[I_HI0], ip[I_HI1], fp[P_RES]
+    reach2 = fp[P_REACH] * fp[P_REACH] + 1e-9
+    lat = np.empty(5, np.int64)
+    while True:
+        n_open = counts[C_OPEN]
+        if counts[C_FOUND] > 0:
+            top = fheap[0] // _C_TOTAL
+            if n_open == 0 or top <= oheap[0] // _O_F + 1:
+                return FINAL
+        if n_open == 0:
+            return EXHAUSTED
+        if counts[C_STATES] + 3 > len(g) or 2 * (counts[C_USED] + 3) > len(hkeys) \
+                or n_open + 3 > len(oheap) or counts[C_FOUND] + 1 > len(fheap):
+            return GROW
+        key, n_open = _pop(oheap, n_open)
+        counts[C_OPEN] = n_open
+        s = key % _O_F
+        if closed[s] or key // _O_F != g[s] + move * moves_to_reach(px[s], py[s], fp):
+            continue  # a stale entry: the state was reached more cheaply since
+        closed[s] = True
+        c, x0, y0 = g[s], px[s], py[s]
+        k = coords[s, 4]
+        # a goal candidate: within reach, and the object in a frustum at some tilt
+        dx, dy = fp[P_TX] - x0, fp[P_TY] - y0
+        if dx * dx + dy * dy <= reach2:
+            t = tilt_bound(corners, x0, y0, k, fp, ip)
+            if t >= 0:
+                total = c + t * ip[I_TILT_COST] + 1
+                nf = _push(fheap, counts[C_FOUND], total * _C_TOTAL + s * _T_SPAN + t + _T_OFF)
+                counts[C_FOUND] = nf
+        if nact[s] + 2 > ip[I_MAX_ACTIONS]:  # no room left for another action and found
+            continue
+        # forward: the simulator's check along the move
+        x1 = x0 + fp[P_STEP] * dirs[k, 0]
+        y1 = y0 + fp[P_STEP] * dirs[k, 1]
         clear = True
-        for f in fracs:  # the simulator's own check of a forward move
+        for f in fracs:
             if not free_at(ok, res, hi0, hi1, x0 + f * (x1 - x0), y0 + f * (y1 - y0)):
                 clear = False
                 break
-        if not clear:
-            continue
-        s = state_of(x1, y1, k, binm, nby, headings)
-        if s < 0 or s >= size or mark[s] == stamp:
-            continue
-        mark[s] = stamp
-        cost = pend_cost[j] + ip[I_MOVE]
-        if best[s] > cost:
-            best[s], px[s], py[s], parent[s], act[s] = cost, x1, y1, st, ip[I_FORWARD]
-            _enter(head, nxt, entries, counts, cost, s)
-    counts[C_PENDING] = 0
+        if clear:
+            for i in range(4):
+                lat[i] = coords[s, i] + steps[k, i]
+            lat[4] = k
+            n0 = counts[C_STATES]
+            _reach(c + move, x1, y1, s, ip[I_FORWARD], lat, g, px, py, par, act, nact,
+                   closed, hkeys, hval, oheap, counts, fp, ip, move)
+            if counts[C_STATES] > n0:
+                coords[n0, :] = lat
+        for d, a in ((1, ip[I_LEFT]), (headings - 1, ip[I_RIGHT])):
+            for i in range(4):
+                lat[i] = coords[s, i]
+            lat[4] = (k + d) % headings
+            n0 = counts[C_STATES]
+            _reach(c + turn, x0, y0, s, a, lat, g, px, py, par, act, nact, closed, hkeys,
+                   hval, oheap, counts, fp, ip, move)
+            if counts[C_STATES] > n0:
+                coords[n0, :] = lat
 
 
-@njit(cache=True)
-def advance(best, px, py, parent, act, mark, head, nxt, entries, pend_cost, pend_state,
-            pend_x, pend_y, found, scratch, scratch_x, scratch_y, counts, ok, dirs, fracs, fp,
-            ip):
-    """Run the search until candidates are final (their total below every unexpanded cost);
-    returns them, (M, 3) rows of (total cost, state, tilt steps) in the order to confirm
-    them, or an empty array when the lattice is exhausted."""
-    size, headings = ip[I_SIZE], ip[I_HEADINGS]
-    move, turn = ip[I_MOVE], ip[I_TURN]
-    tilt_cost = min(move, turn)
-    fkey = size * _T_SPAN
-    while True:
-        c = _lowest(head, counts)
-        has_c = c >= 0
-        # the pending forward moves are made before bucket c when a turn could cost as much
-        if counts[C_PENDING] > 0 and (not has_c or c + turn >= pend_cost[0] + move):
-            _move_forward(best, px, py, parent, act, mark, head, nxt, entries, pend_cost,
-                          pend_state, pend_x, pend_y, counts, ok, dirs, fracs, fp, ip)
-            continue
-        nf = counts[C_FOUND]
-        if nf > 0 and (not has_c or found[0] // fkey < c):
-            m = 0
-            out = np.empty((nf, 3), np.int64)
-            while nf > 0 and (not has_c or found[0] // fkey < c):
-                key, nf = _pop(found, nf)
-                out[m, 0] = key // fkey
-                out[m, 1] = (key % fkey) // _T_SPAN
-                out[m, 2] = key % _T_SPAN - _T_OFF
-                m += 1
-            counts[C_FOUND] = nf
-            return out[:m]
-        if not has_c:
-            return np.empty((0, 3), np.int64)
-        # bucket c: its states in state order (a state enters a bucket once: only when its
-        # cost strictly drops to the bucket's), those still at cost c
-        slot = c % len(head)
-        e, n = head[slot], 0
-        while e >= 0:
-            s = entries[e]
-            if best[s] > c:  # an entry of a higher cost in this slot: the ring is too short
-                raise RuntimeError("lattice search: two live costs share a bucket")
-            scratch[n] = s
-            n += 1
-            e = nxt[e]
-        head[slot] = -1
-        counts[C_LIVE] -= n
-        scratch[:n].sort()
-        m = 0
-        for i in range(n):
-            s = scratch[i]
-            if best[s] == c:
-                scratch[m], scratch_x[m], scratch_y[m] = s, px[s], py[s]
-                m += 1
-        n = m
-        if n == 0:
-            continue
-        # goal candidates among the settled states
-        for i in range(n):
-            s = scratch[i]
-            k = s % headings
-            dx, dy = fp[P_TX] - scratch_x[i], fp[P_TY] - scratch_y[i]
-            dist = math.hypot(dx, dy)
-            if dist > fp[P_REACH] or math.hypot(dist, fp[P_TZ] - fp[P_CAMERA]) > fp[P_VIEW]:
-                continue
-            bearing = (math.degrees(math.atan2(dy, dx)) - fp[P_TURN_DEG] * k + 180.0) \
-                % 360.0 - 180.0
-            if abs(bearing) <= fp[P_HALF_FOV]:
-                t = tilt_step(dist, fp[P_TZ], fp[P_CAMERA], ip[I_TILT0], ip[I_TILT_MIN],
-                              ip[I_TILT_MAX], ip[I_TILT_STEP], fp[P_HALF_FOV])
-                if t != NO_TILT:
-                    total = c + abs(t) * tilt_cost + 1
-                    nf = _push(found, nf, total * fkey + s * _T_SPAN + t + _T_OFF)
-        counts[C_FOUND] = nf
-        # expand: forward (queued, see the top of the loop) and the two turns (a turn stays
-        # in its own bin, one state per source)
-        p = counts[C_PENDING]
-        for i in range(n):
-            pend_cost[p], pend_state[p] = c, scratch[i]
-            pend_x[p], pend_y[p] = scratch_x[i], scratch_y[i]
-            p += 1
-        counts[C_PENDING] = p
-        if c + turn >= pend_cost[0] + move:
-            _move_forward(best, px, py, parent, act, mark, head, nxt, entries, pend_cost,
-                          pend_state, pend_x, pend_y, counts, ok, dirs, fracs, fp, ip)
-        for d, a in ((1, ip[I_LEFT]), (-1, ip[I_RIGHT])):
-            for i in range(n):
-                s = scratch[i]
-                k = s % headings
-                s2 = s - k + (k + d) % headings
-                if best[s2] > c + turn:
-                    best[s2], px[s2], py[s2] = c + turn, scratch_x[i], scratch_y[i]
-                    parent[s2], act[s2] = s, a
-                    _enter(head, nxt, entries, counts, c + turn, s2)
+class LatticeFull(RuntimeError):
+    """The search needs more states than it is allowed."""
 
 
-def trace(act: np.ndarray, parent: np.ndarray, s0: int, s: int) -> list[int]:
-    """The actions (``act`` of each state) along the ``parent`` links from state ``s0`` to
-    state ``s``, in the order they are taken."""
+def trace(act: np.ndarray, parent: np.ndarray, s: int) -> list[int]:
+    """The actions (``act`` of each state) along the ``parent`` links from the start (state
+    0) to state ``s``, in the order they are taken."""
     moves: list[int] = []
-    while s != s0:
+    while s != 0:
         moves.append(int(act[s]))
         s = int(parent[s])
     return moves[::-1]
 
 
 class Lattice:
-    """One search's state arrays (``size`` states) and constant parameters; :meth:`advance`
-    runs it to the next candidates."""
+    """One A* search over the exact motion lattice from a start pose, with its cost per
+    forward move, turn and tilt step (``found`` costs 1).
 
-    def __init__(self, *, size: int, nby: int, ok: np.ndarray, resolution: float,
-                 bin_m: float, step_m: float, step_fractions: np.ndarray,
-                 heading_vectors: np.ndarray, turn_deg: float, target: np.ndarray,
-                 camera_height_m: float, reach_m: float, max_view_m: float,
-                 half_fov_deg: float, move_cost: int, turn_cost: int, tilt_deg: int,
-                 tilt_min_deg: int, tilt_max_deg: int, tilt_step_deg: int,
-                 actions: tuple[int, int, int]) -> None:
-        """``ok``: the occupancy table of the simulator's forward-move check, with a border
-        for "outside the grid"; ``actions``: the ids of forward, left and right."""
-        fp = np.zeros(11)
-        fp[[P_STEP, P_BIN, P_RES, P_REACH, P_VIEW, P_HALF_FOV, P_TURN_DEG]] = (
-            step_m, bin_m, resolution, reach_m, max_view_m, half_fov_deg, turn_deg)
-        fp[[P_TX, P_TY, P_TZ, P_CAMERA]] = (*np.asarray(target, float), camera_height_m)
+    ``ok``: the occupancy table of the simulator's forward-move check, with a border for
+    "outside the grid"; ``corners``: points (N, 3) that bound the object (its geoms' boxes'
+    corners) for the frustum test; ``actions``: the ids of forward, left and right."""
+
+    def __init__(self, *, ok: np.ndarray, resolution: float, step_m: float,
+                 step_fractions: np.ndarray, heading_vectors: np.ndarray, turn_deg: float,
+                 target_xy, corners: np.ndarray, camera_height_m: float, reach_m: float,
+                 half_fov_deg: float, move_cost: int, turn_cost: int, tilt_cost: int,
+                 tilt_deg: int, tilt_min_deg: int, tilt_max_deg: int, tilt_step_deg: int,
+                 actions: tuple[int, int, int], max_actions: int,
+                 capacity: int = 1 << 14) -> None:
+        fp = np.zeros(9)
+        # the frustum test's margins: 5 % wider than the image, 2 cm (as the camera's own)
+        fp[[P_STEP, P_RES, P_REACH, P_TX, P_TY, P_CAMERA, P_TURN_RAD, P_TAN, P_SLACK]] = (
+            step_m, resolution, reach_m, float(target_xy[0]), float(target_xy[1]),
+            camera_height_m, math.radians(turn_deg),
+            math.tan(math.radians(half_fov_deg)) * 1.05, 0.02)
         ip = np.zeros(14, np.int64)
-        ip[[I_NBY, I_SIZE, I_MOVE, I_TURN, I_TILT_MIN, I_TILT_MAX, I_TILT_STEP, I_TILT0,
-            I_HI0, I_HI1, I_FORWARD, I_LEFT, I_RIGHT, I_HEADINGS]] = (
-            nby, size, move_cost, turn_cost, tilt_min_deg, tilt_max_deg, tilt_step_deg,
-            tilt_deg, ok.shape[0] - 1, ok.shape[1] - 1, *actions, len(heading_vectors))
+        ip[[I_MOVE, I_TURN, I_TILT_COST, I_TILT0, I_TILT_MIN, I_TILT_MAX, I_TILT_STEP, I_HI0,
+            I_HI1, I_FORWARD, I_LEFT, I_RIGHT, I_MAX_ACTIONS, I_HEADINGS]] = (
+            move_cost, turn_cost, tilt_cost, tilt_deg, tilt_min_deg, tilt_max_deg,
+            tilt_step_deg, ok.shape[0] - 1, ok.shape[1] - 1, *actions, max_actions,
+            len(heading_vectors))
+        if len(heading_vectors) != len(LATTICE_STEPS):
+            raise ValueError("the exact lattice is made for 12 headings")
         self._fp, self._ip = fp, ip
         self._ok = np.ascontiguousarray(ok, bool)
         self._dirs = np.ascontiguousarray(heading_vectors, float)
         self._fracs = np.ascontiguousarray(step_fractions, float)
-        self.best = np.full(size, np.iinfo(np.int64).max, np.int64)
-        self.px, self.py = np.zeros(size), np.zeros(size)
-        self.parent = np.full(size, -1, np.int64)
-        self.act = np.full(size, -1, np.int8)
-        self._mark = np.zeros(size, np.int32)
-        # buckets: a ring of list heads, one per cost (live costs span at most a move and a
-        # turn), and the entries (each state makes 3 at most, and the start one)
-        self._head = np.full(move_cost + turn_cost + 1, -1, np.int64)
-        self._entries = (np.empty(3 * size + 1, np.int64), np.empty(3 * size + 1, np.int64))
-        self._pending = (np.empty(size, np.int64), np.empty(size, np.int64),
-                         np.empty(size), np.empty(size))
-        self._found = np.empty(size, np.int64)
-        self._scratch = (np.empty(size, np.int64), np.empty(size), np.empty(size))
-        self._counts = np.zeros(6, np.int64)
+        self._corners = np.ascontiguousarray(corners, float).reshape(-1, 3)
+        self._counts = np.zeros(4, np.int64)
+        n = int(capacity)
+        self.g = np.empty(n, np.int64)
+        self.px, self.py = np.empty(n), np.empty(n)
+        self.parent = np.empty(n, np.int32)
+        self.act = np.empty(n, np.int8)
+        self._nact = np.empty(n, np.int32)
+        self._closed = np.empty(n, np.bool_)
+        self.coords = np.empty((n, 5), np.int64)
+        self._hkeys = np.full(4 * n, -1, np.int64)
+        self._hval = np.empty(4 * n, np.int32)
+        self._open = np.empty(3 * n + 1, np.int64)
+        self._found = np.empty(n, np.int64)
 
-    def start(self, x: float, y: float, heading: int) -> int:
-        """Start the search at a pose; returns its state."""
-        ip = self._ip
-        s0 = int(state_of(x, y, heading, self._fp[P_BIN], ip[I_NBY], ip[I_HEADINGS]))
-        self.best[s0], self.px[s0], self.py[s0] = 0, x, y
-        _enter(self._head, *self._entries, self._counts, 0, s0)
-        return s0
+    @property
+    def states(self) -> int:
+        """States entered so far."""
+        return int(self._counts[C_STATES])
 
-    def advance(self) -> np.ndarray:
-        """The next candidates to confirm, (M, 3) rows of (total cost, state, tilt steps)
-        in order; empty when the lattice is exhausted."""
-        return advance(self.best, self.px, self.py, self.parent, self.act, self._mark,
-                       self._head, *self._entries, *self._pending, self._found, *self._scratch,
-                       self._counts, self._ok, self._dirs, self._fracs, self._fp, self._ip)
+    def start(self, x: float, y: float, heading: int) -> None:
+        """Start the search at a pose (state 0)."""
+        c = self._counts
+        key = int(pack(0, 0, 0, 0, heading, int(self._ip[I_HEADINGS])))
+        j = int(_slot(self._hkeys, key))
+        self._hkeys[j], self._hval[j] = key, 0
+        c[C_STATES], c[C_USED] = 1, 1
+        self.g[0], self.px[0], self.py[0], self.parent[0], self.act[0] = 0, x, y, -1, -1
+        self._nact[0], self._closed[0] = 0, False
+        self.coords[0] = (0, 0, 0, 0, heading)
+        f = int(self._ip[I_MOVE]) * int(moves_to_reach(x, y, self._fp))
+        c[C_OPEN] = _push(self._open, 0, f * _O_F)
+
+    def _grow(self) -> None:
+        n = len(self.g)
+        if self._counts[C_STATES] + 3 > n:
+            m = 2 * n
+            for name in ("g", "px", "py", "parent", "act", "_nact", "_closed"):
+                setattr(self, name, np.resize(getattr(self, name), m))
+            self.coords = np.resize(self.coords, (m, 5))
+        if 2 * (self._counts[C_USED] + 3) > len(self._hkeys):
+            self._hkeys, self._hval = rehash(self._hkeys, self._hval, 2 * len(self._hkeys))
+        if self._counts[C_OPEN] + 3 > len(self._open):
+            self._open = np.resize(self._open, 2 * len(self._open))
+        if self._counts[C_FOUND] + 1 > len(self._found):
+            self._found = np.resize(self._found, 2 * len(self._found))
+
+    def next_candidate(self, max_states: int) -> tuple[int, int, int] | None:
+        """The cheapest final candidate, taken out: (lower bound of its total, state, tilt
+        steps bound), or None when the lattice holds no more; :class:`LatticeFull` once it
+        would need more than ``max_states`` states."""
+        while True:
+            code = _run(self.g, self.px, self.py, self.parent, self.act, self._nact,
+                        self._closed, self.coords, self._hkeys, self._hval, self._open,
+                        self._found, self._counts, self._ok, self._dirs, self._fracs,
+                        LATTICE_STEPS, self._corners, self._fp, self._ip)
+            if code == GROW:
+                if self.states + 3 > max_states:
+                    raise LatticeFull(f"more than {max_states} lattice states")
+                self._grow()
+                continue
+            if code == EXHAUSTED:
+                return None
+            key, self._counts[C_FOUND] = _pop(self._found, int(self._counts[C_FOUND]))
+            key = int(key)
+            return (key // _C_TOTAL, (key % _C_TOTAL) // _T_SPAN, key % _T_SPAN - _T_OFF)
+
+    def offer(self, total: int, state: int, tilt_steps: int) -> None:
+        """Enter a candidate again, with a higher total (its exact tilt cost)."""
+        if self._counts[C_FOUND] + 1 > len(self._found):
+            self._found = np.resize(self._found, 2 * len(self._found))
+        self._counts[C_FOUND] = _push(self._found, int(self._counts[C_FOUND]),
+                                      total * _C_TOTAL + state * _T_SPAN + tilt_steps + _T_OFF)
+
+    def heading(self, state: int) -> int:
+        return int(self.coords[state, 4])

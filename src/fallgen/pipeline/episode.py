@@ -39,7 +39,7 @@ from fallgen.audio.impact import radiated_energy_j
 from fallgen.audio.mix import Binaural, BinauralClip, Listener
 from fallgen.audio.room import RirSettings, RoomAcoustics
 from fallgen.nav.agent import HEADINGS, VISIBLE_PIXELS, AgentSpec, Pose, run
-from fallgen.nav.expert import Expert, NoPath
+from fallgen.nav.expert import Expert, NoPath, SearchLimit
 from fallgen.nav.occupancy import OccupancyGrid
 from fallgen.physics.drop import _instance, replay
 from fallgen.physics.events import FallEvent
@@ -174,13 +174,16 @@ class EpisodeMaker:
             else:
                 sees = camera.shows(data, spawn, VISIBLE_PIXELS)
             lap("spawn")
-            # The expert comes first: an event that no reachable pose sees (no_path, about one
-            # attempt in six) is skipped before its replay, sound and first view are made (the
-            # planner draws nothing from rng, so the episode is the same in either order).
-            # Both searches of the expert and the simulator's check ask about the same poses:
-            # the room renders and ray casts each once (the scene is static).
+            # The expert comes first: an event that no reachable pose sees (no_path), or whose
+            # optimum the search cannot prove within its limits (search_limit), is skipped
+            # before its replay, sound and first view are made (the planner draws nothing from
+            # rng, so the episode is the same in either order). Both searches of the expert
+            # and the simulator's check ask about the same poses: the room renders each once
+            # (the scene is static).
             try:
                 ex = settled.expert(spawn)
+            except SearchLimit as e:  # not proven either way within the search's limits
+                raise Skip("search_limit", str(e)) from None
             except NoPath as e:
                 raise Skip("no_path", str(e)) from None
             lap("planning")

@@ -3,10 +3,12 @@
 One definition for the generation of an episode (:mod:`fallgen.pipeline.episode`: its spawn,
 first view, expert and check) and for the environment that replays it (:mod:`fallgen.env`):
 the compiled scene with the target where it came to rest and the distractors and occluders where
-they stood, its occupancy grid in the robot's height band, the agent's camera, and the two tests
-the expert and the judge ask about poses: whether the object is visible (at least
-``VISIBLE_PIXELS`` segmentation pixels) and whether a line of sight from the camera reaches it.
-Both answers are kept per pose (the scene is static), so a pose is rendered or ray cast once.
+they stood, its occupancy grid in the robot's height band, the agent's camera, and the test the
+expert and the judge ask about poses: whether the object is visible (at least
+``VISIBLE_PIXELS`` segmentation pixels). The answer is kept per pose (the scene is static), so a
+pose is rendered once, and not at all where the scene's opaque faces leave fewer pixels of the
+view able to show the object (:class:`fallgen.vision.sight.Occluders`: what can show from an
+eye point, kept per eye point).
 """
 
 from __future__ import annotations
@@ -18,14 +20,14 @@ import mujoco
 import numpy as np
 
 from fallgen.nav.agent import VISIBLE_PIXELS, AgentSpec, Pose
-from fallgen.nav.expert import Expert, Plan, expert, max_view_distance, plan_to_see
-from fallgen.nav.occupancy import BOX_SIGNS, OccupancyGrid, geom_box_corners, occupancy, \
-    room_samples
+from fallgen.nav.expert import Expert, Plan, expert, plan_to_see
+from fallgen.nav.occupancy import OccupancyGrid, geom_box_corners, occupancy, room_samples
 from fallgen.physics.drop import _instance
 from fallgen.physics.events import FallEvent
 from fallgen.vision.camera import EgoCamera
 from fallgen.vision.gl import GLContext
-from fallgen.vision.sight import line_of_sight
+from fallgen.vision.camera import FOV_DEG, WIDTH
+from fallgen.vision.sight import Occluders, Sight, geom_points
 from fallgen.world.library import World
 from fallgen.world.scene import LOOK, VIEW, PlacedObject, build_scene
 
@@ -71,19 +73,19 @@ class SettledRoom:
             self.static = static
             self.grid: OccupancyGrid = occupancy(self.scene, self.data,
                                                  band_high_m=spec.height_m, static=static)
-            self.lo, self.hi = target_box(self.scene, self.data)
+            #: the corners of the target's geoms' boxes: the frustum test's bound of it
+            self.corners = target_corners(self.scene, self.data)
+            self.lo, self.hi = self.corners.min(0), self.corners.max(0)
+            #: points whose hull holds the target as drawn (its meshes' vertices)
+            self.outline = target_points(self.scene, self.data)
         except BaseException:
             self.camera.close()
             raise
         #: the object's centre (its bounding box's): what distances are measured to
         self.centre = (self.lo + self.hi) / 2
-        # where a line of sight may reach: the centre and the corners pulled 25 % inward
-        self._points = np.vstack([self.centre,
-                                  self.centre + 0.75 * BOX_SIGNS * (self.hi - self.lo) / 2])
         self._seen: dict[Pose, bool] = {}
-        self._clear: dict[tuple[float, float], bool] = {}
-        #: farthest camera-to-centre distance from which the object can cover enough pixels
-        self.max_view_m = max_view_distance(self.hi - self.lo, VISIBLE_PIXELS)
+        self._sights: dict[tuple[float, float], Sight] = {}
+        self._occluders: Occluders | None = None  # made on first use
 
     def close(self) -> None:
         self.camera.close()
@@ -93,8 +95,30 @@ class SettledRoom:
         object (rendered once per pose)."""
         seen = self._seen.get(pose)
         if seen is None:
-            seen = self._seen[pose] = self.camera.shows(self.data, pose, VISIBLE_PIXELS)
+            sight = self.sight(pose)
+            seen = self._seen[pose] = not sight.hidden and sight.max_pixels(
+                pose.yaw_rad, math.radians(pose.tilt_deg), WIDTH, FOV_DEG, VISIBLE_PIXELS
+            ) >= VISIBLE_PIXELS and self.camera.shows(self.data, pose, VISIBLE_PIXELS)
         return seen
+
+    def may_see(self, pose: Pose, tilts: list[int]) -> np.ndarray:
+        """For each tilt (degrees) of ``pose``'s position and heading, whether the view can
+        show enough of the object to be visible (False only where it cannot)."""
+        return self.sight(pose).may_show(pose.yaw_rad, np.radians(tilts), WIDTH, FOV_DEG,
+                                         VISIBLE_PIXELS)
+
+    def sight(self, pose: Pose) -> Sight:
+        """What of the object the scene's opaque faces can let the camera at ``pose`` see,
+        whatever its heading and tilt (kept per eye point)."""
+        key = (pose.x, pose.y)
+        s = self._sights.get(key)
+        if s is None:
+            if self._occluders is None:
+                self._occluders = Occluders(self.scene.model, self.data,
+                                            self.scene.object_body["target"], self.corners)
+            s = self._sights[key] = self._occluders.look(
+                np.array([pose.x, pose.y, self.spec.camera_height_m]), self.outline)
+        return s
 
     def note_visible(self, pose: Pose, pixels: int) -> bool:
         """Record the object's pixel count in a full segmentation render from ``pose`` (the
@@ -102,40 +126,48 @@ class SettledRoom:
         seen = self._seen[pose] = pixels >= VISIBLE_PIXELS
         return seen
 
-    def clear(self, pose: Pose) -> bool:
-        """Whether a line of sight from the camera at ``pose`` reaches the object."""
-        key = (pose.x, pose.y)
-        ok = self._clear.get(key)
-        if ok is None:
-            ok = self._clear[key] = line_of_sight(
-                self.scene.model, self.data, self.scene.geom_owner,
-                np.array([pose.x, pose.y, self.spec.camera_height_m]), self._points,
-                (self.lo, self.hi))
-        return ok
-
     def expert(self, start: Pose) -> Expert:
         """The expert's plan from ``start`` and the references of SPL and SNA (raises
         :class:`fallgen.nav.expert.NoPath`)."""
-        return expert(start, self.grid, self.centre, self.clear, self.visible, self.spec,
-                      self.max_view_m)
+        return expert(start, self.grid, self.centre, self.corners, self.visible, self.spec,
+                      may_see=self.may_see)
 
     def plan(self, start: Pose) -> Plan:
         """The expert's own plan from ``start`` (fewest forward moves, then fewest turns)
         without the fewest-actions search: what an oracle of the next action needs."""
-        return plan_to_see(start, self.grid, self.centre, self.clear, self.visible, self.spec,
-                           self.max_view_m)
+        return plan_to_see(start, self.grid, self.centre, self.corners, self.visible,
+                           self.spec, may_see=self.may_see)
 
     def object_distance_m(self, pose: Pose) -> float:
         """Horizontal distance from ``pose`` to the object's centre."""
         return math.hypot(pose.x - float(self.centre[0]), pose.y - float(self.centre[1]))
 
 
-def target_box(scene, data) -> tuple[np.ndarray, np.ndarray]:
-    """The target's world bounding box (over its geoms' oriented boxes)."""
+def target_corners(scene, data) -> np.ndarray:
+    """(8 N, 3) world corners of the target's N geoms' oriented boxes."""
     m = scene.model
     b = scene.object_body["target"]
-    pts = np.vstack([geom_box_corners(m, data, g) for g in range(m.ngeom)
-                     if m.geom_bodyid[g] == b])
+    return np.vstack([geom_box_corners(m, data, g) for g in range(m.ngeom)
+                      if m.geom_bodyid[g] == b])
+
+
+def target_points(scene, data) -> np.ndarray:
+    """(N, 3) world points whose hull holds the target's geoms as drawn: the vertices of the
+    hull of its meshes' vertices (and other geoms' box corners)."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    m = scene.model
+    b = scene.object_body["target"]
+    pts = np.vstack([geom_points(m, data, g) for g in range(m.ngeom) if m.geom_bodyid[g] == b])
+    try:
+        return pts[ConvexHull(pts).vertices]
+    except QhullError:  # flat or degenerate: every point
+        return pts
+
+
+def target_box(scene, data) -> tuple[np.ndarray, np.ndarray]:
+    """The target's world bounding box (over its geoms' oriented boxes)."""
+    pts = target_corners(scene, data)
     return pts.min(0), pts.max(0)
 
 

@@ -1,16 +1,30 @@
-"""Line of sight from the agent's camera to the target, by MuJoCo ray casts.
+"""What of an object the scene can let an eye point see, bounded from the faces the renderer
+draws, so that most views need not be rendered to know they show too little.
 
-:func:`line_of_sight` says whether nothing but the target lies between the camera and one of a
-few points inside the target (the expert's cheap test before it renders a candidate pose). It
-casts one ray at a time (``mj_ray``, on the geom groups the camera draws) and stops at the first
-clear one: ``mj_multiRay`` first bounds every geom as seen from the eye, which costs more than
-the rays, and most candidate poses are blocked on every ray.
+The expert's search asks the renderer whether a pose shows the object (at least a few pixels of
+it: ``EgoCamera.shows``); an eye point within reach of the object is asked about up to a dozen
+views (headings and tilts). From most such eyes little or nothing of the object shows: it lies
+behind a cabinet, inside a pan or a box. :meth:`Occluders.look` bounds, without rendering, the
+directions in which the object can show from an eye, and :meth:`Sight.max_pixels` the pixels a
+view can then show; the bounds never fall short:
 
-A box geom (a wall, a cabinet, a shelf board) that blocks one ray usually blocks the others.
-The rays it enters (slab test, compiled with Numba) before their point and before they enter the
-target's box are blocked whatever else they meet (their nearest hit is no farther, and cannot be
-the target), so they are not cast: the verdict is exactly that of casting every ray, with
-``RAY_MARGIN_M`` of slack for rounding in the slab test.
+- the occluders are the faces the renderer draws opaque (a box geom's six faces, a mesh geom's
+  triangles; geoms in the groups views draw, alpha 1 in their colour and material; the object's
+  own geoms excluded); a sphere, ellipsoid, cylinder or capsule, which the renderer draws as a
+  polyhedron with its vertices on the surface, stands in as a polyhedron inside that one
+  (:func:`geom_triangles`), used only from eyes outside its bounding sphere;
+- the renderer culls back faces (``tests/vision`` checks it), so a face counts only from its
+  front, and only if the eye is farther from its plane than twice the near clipping distance;
+- a face hides what lies behind its plane: every corner of the object's geoms' boxes at least
+  ``BEHIND_M`` behind it, the eye in front, so along every ray through the face the face comes
+  first (by at least that much, far beyond the depth buffer's resolution);
+- seen from the eye (a gnomonic projection about the direction to the object), the image of
+  the hull of the object's boxes, grown by ``MARGIN`` (0.15 pixels or more of any view), minus
+  the faces' images, is what can show (:func:`fallgen.vision.cover.subtract`, exact convex
+  pieces); nothing left: the object is hidden from every view there;
+- a view's pixels that can show the object are its pixel centres within ``SLACK_PX`` of those
+  pieces (far beyond the rasteriser's sub-pixel precision): fewer than the judge's count, and
+  the view cannot show the object.
 """
 
 from __future__ import annotations
@@ -21,76 +35,406 @@ import mujoco
 import numpy as np
 from numba import njit
 
+from fallgen.vision.cover import MAX_VERTICES, clip, subtract
+
 #: The geom groups views draw (MuJoCo's default visualisation options): 0, 1 and 2.
 DRAWN_GROUPS = np.array(mujoco.MjvOption().geomgroup, np.uint8)
-#: Slack (m) on the ray-box distances that spare a ray cast, for rounding.
-RAY_MARGIN_M = 1e-6
-_BOX = int(mujoco.mjtGeom.mjGEOM_BOX)
-_IDENTITY = np.eye(3)
-_ORIGIN = np.zeros(3)
+#: How far (m) every corner of the object must lie behind an occluding face's plane.
+BEHIND_M = 0.01
+#: The object's image grown by this much (tangent units about its direction) before the faces
+#: are taken away: 0.15 pixels of a 90 degree, 300 pixel view at its centre, more elsewhere.
+MARGIN = 1e-3
+#: A view's pixel centres this close (pixels) to what can show are counted.
+SLACK_PX = 0.2
+#: Pieces the subtraction may keep before it gives up (then every view is rendered).
+MAX_PIECES = 256
+#: Area (tangent units squared) below which a leftover piece is rounding, not a gap: a pixel
+#: is about 4e-5.
+DUST = 1e-14
+#: The object's image is bounded by its extents along this many directions (each both ways).
+_SIDES = 16
+#: The six faces of a unit box: the corner signs of each, counter-clockwise seen from outside.
+_BOX_FACES = np.array([
+    [[-1, -1, -1], [-1, -1, 1], [-1, 1, 1], [-1, 1, -1]],
+    [[1, -1, -1], [1, 1, -1], [1, 1, 1], [1, -1, 1]],
+    [[-1, -1, -1], [1, -1, -1], [1, -1, 1], [-1, -1, 1]],
+    [[-1, 1, -1], [-1, 1, 1], [1, 1, 1], [1, 1, -1]],
+    [[-1, -1, -1], [-1, 1, -1], [1, 1, -1], [1, -1, -1]],
+    [[-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]],
+], float)
+_BOX_TRIANGLES = np.concatenate([_BOX_FACES[:, [0, 1, 2]], _BOX_FACES[:, [0, 2, 3]]])
+
+
+def drawn_opaque(model: mujoco.MjModel, g: int) -> bool:
+    """Whether the views draw geom ``g`` (its group) and draw it opaque (its colour's and its
+    material's alpha 1)."""
+    if not DRAWN_GROUPS[min(int(model.geom_group[g]), len(DRAWN_GROUPS) - 1)]:
+        return False
+    alpha = float(model.geom_rgba[g, 3])
+    mat = int(model.geom_matid[g])
+    if mat >= 0:
+        alpha = min(alpha, float(model.mat_rgba[mat, 3]))
+    return alpha >= 1.0
+
+
+def _prism(sides: int) -> np.ndarray:
+    """(4 sides, 3, 3) triangles of a unit prism (radius 1, z in [-1, 1]) with ``sides``
+    sides, counter-clockwise seen from outside."""
+    a = 2 * np.pi * np.arange(sides) / sides
+    ring = np.column_stack([np.cos(a), np.sin(a)])
+    tris = []
+    for i in range(sides):
+        (x0, y0), (x1, y1) = ring[i], ring[(i + 1) % sides]
+        tris += [[(x0, y0, -1), (x1, y1, -1), (x1, y1, 1)], [(x0, y0, -1), (x1, y1, 1), (x0, y0, 1)],
+                 [(0, 0, 1), (x0, y0, 1), (x1, y1, 1)], [(0, 0, -1), (x1, y1, -1), (x0, y0, -1)]]
+    return np.array(tris, float)
+
+
+def _octasphere() -> np.ndarray:
+    """Triangles of a unit sphere's inscribed polyhedron (an octahedron split twice: 128
+    faces, vertices on the sphere), counter-clockwise seen from outside."""
+    tris = [np.array(t, float) for t in (
+        [(1, 0, 0), (0, 1, 0), (0, 0, 1)], [(0, 1, 0), (-1, 0, 0), (0, 0, 1)],
+        [(-1, 0, 0), (0, -1, 0), (0, 0, 1)], [(0, -1, 0), (1, 0, 0), (0, 0, 1)],
+        [(0, 1, 0), (1, 0, 0), (0, 0, -1)], [(-1, 0, 0), (0, 1, 0), (0, 0, -1)],
+        [(0, -1, 0), (-1, 0, 0), (0, 0, -1)], [(1, 0, 0), (0, -1, 0), (0, 0, -1)])]
+    for _ in range(2):
+        out = []
+        for a, b, c in tris:
+            ab, bc, ca = ((u + v) / np.linalg.norm(u + v) for u, v in ((a, b), (b, c), (c, a)))
+            out += [np.array(t) for t in ((a, ab, ca), (ab, b, bc), (ca, bc, c), (ab, bc, ca))]
+        tris = out
+    return np.array(tris)
+
+
+_PRISM = _prism(12)
+_SPHERE = _octasphere()
+
+
+def inner_ratio(model: mujoco.MjModel) -> float:
+    """The fraction of a round geom's size that the renderer's polyhedron for it holds
+    everywhere: its faces' vertices lie on the surface, ``numslices`` around and
+    ``numstacks`` along, so every face lies within (pi / slices + pi / stacks) of the
+    surface's normal direction; a little less again for rounding."""
+    q = model.vis.quality
+    return 0.999 * math.cos(math.pi / q.numslices + math.pi / q.numstacks)
+
+
+def geom_triangles(model: mujoco.MjModel, data: mujoco.MjData, g: int) -> np.ndarray | None:
+    """(M, 3, 3) world triangles of geom ``g``, counter-clockwise seen from their front: a
+    box's faces, a mesh's as stored; for a round geom, a polyhedron inside the one the
+    renderer draws (:func:`inner_ratio`; a capsule's cylinder only). None for other types."""
+    pos, rot = data.geom_xpos[g], data.geom_xmat[g].reshape(3, 3)
+    t = int(model.geom_type[g])
+    size = model.geom_size[g]
+    if t == mujoco.mjtGeom.mjGEOM_BOX:
+        local = _BOX_TRIANGLES * size
+    elif t == mujoco.mjtGeom.mjGEOM_MESH:
+        mesh = int(model.geom_dataid[g])
+        v0, nv = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
+        f0, nf = model.mesh_faceadr[mesh], model.mesh_facenum[mesh]
+        local = model.mesh_vert[v0:v0 + nv].astype(float)[model.mesh_face[f0:f0 + nf]]
+    elif t in (mujoco.mjtGeom.mjGEOM_SPHERE, mujoco.mjtGeom.mjGEOM_ELLIPSOID):
+        radii = size[[0, 0, 0]] if t == mujoco.mjtGeom.mjGEOM_SPHERE else size[:3]
+        local = _SPHERE * (inner_ratio(model) * radii)
+    elif t in (mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_CAPSULE):
+        r = inner_ratio(model) * size[0]
+        local = _PRISM * np.array([r, r, 0.999 * size[1]])
+    else:
+        return None
+    return local @ rot.T + pos
+
+
+def _round(model: mujoco.MjModel, g: int) -> bool:
+    return int(model.geom_type[g]) in (mujoco.mjtGeom.mjGEOM_SPHERE,
+                                       mujoco.mjtGeom.mjGEOM_ELLIPSOID,
+                                       mujoco.mjtGeom.mjGEOM_CYLINDER,
+                                       mujoco.mjtGeom.mjGEOM_CAPSULE)
+
+
+def geom_points(model: mujoco.MjModel, data: mujoco.MjData, g: int) -> np.ndarray:
+    """(N, 3) world points whose hull holds geom ``g`` as drawn: a mesh's vertices, a box's
+    corners, the corners of another type's bounding box."""
+    pos, rot = data.geom_xpos[g], data.geom_xmat[g].reshape(3, 3)
+    if int(model.geom_type[g]) == mujoco.mjtGeom.mjGEOM_MESH:
+        mesh = int(model.geom_dataid[g])
+        v0, nv = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
+        return model.mesh_vert[v0:v0 + nv].astype(float) @ rot.T + pos
+    c, h = model.geom_aabb[g, :3], model.geom_aabb[g, 3:]
+    signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+    return (c + signs * h) @ rot.T + pos
 
 
 @njit(cache=True)
-def box_entries(eye, unit, lo, hi, rot, centre, out):
-    """``out[i]``: the distance along ray i (from ``eye`` along the unit row ``unit[i]``) at
-    which it enters the box [lo, hi] of the frame at ``centre`` whose axes are the columns of
-    ``rot`` (slab test); inf if it misses the box (or the box is behind the eye), <= 0 from
-    inside it."""
-    p = np.empty(3)
-    for k in range(3):
-        p[k] = ((eye[0] - centre[0]) * rot[0, k] + (eye[1] - centre[1]) * rot[1, k]
-                + (eye[2] - centre[2]) * rot[2, k])
-    for i in range(unit.shape[0]):
-        near, far = -math.inf, math.inf
-        for k in range(3):
-            u = unit[i, 0] * rot[0, k] + unit[i, 1] * rot[1, k] + unit[i, 2] * rot[2, k]
-            if u == 0.0:  # parallel to the slab: inside it or never in the box
-                if p[k] < lo[k] or p[k] > hi[k]:
-                    near = math.inf
-                continue
-            a, b = (lo[k] - p[k]) / u, (hi[k] - p[k]) / u
-            if a > b:
-                a, b = b, a
-            near, far = max(near, a), min(far, b)
-        out[i] = near if near <= far and far >= 0.0 else math.inf
-
-
-@njit(cache=True)
-def mark_blocked(eye, unit, reach, size, rot, centre, blocked):
-    """Set ``blocked[i]`` for the rays that enter the box geom (half sizes ``size``, frame
-    ``rot``, ``centre``) more than ``RAY_MARGIN_M`` ahead of the eye and before ``reach[i]``."""
-    hits = np.empty(unit.shape[0])
-    box_entries(eye, unit, -size, size, rot, centre, hits)
-    for i in range(unit.shape[0]):
-        if RAY_MARGIN_M < hits[i] < reach[i]:
-            blocked[i] = True
-
-
-def line_of_sight(model: mujoco.MjModel, data: mujoco.MjData, owners, eye: np.ndarray,
-                  points: np.ndarray, box: tuple[np.ndarray, np.ndarray],
-                  target: str = "obj:target") -> bool:
-    """Whether a ray from ``eye`` reaches one of ``points`` with nothing but ``target``'s geoms
-    (``owners``: each geom's owner name) in the way; ``box`` = (lo, hi), an axis-aligned box
-    holding every geom of the target."""
-    v = points - eye
-    dist = np.sqrt((v * v).sum(1))
-    unit = v / dist[:, None]
-    geomid = np.zeros(1, np.int32)
-    types = model.geom_type
-    blocked = reach = None
-    for i, d in enumerate(dist.tolist()):
-        if blocked is not None and blocked[i]:
+def _project_faces(tris, normals, lo, hi, solids, eye, corners, w, p, q, box, near, ox, oy,
+                   sizes):
+    """The gnomonic images (about ``w``, basis ``p``, ``q``) of the faces (each with the object
+    behind it) that face ``eye`` and whose images meet ``box`` (x0, y0, x1, y1), clipped to
+    z >= 1e-3; returns how many were written to ``ox``, ``oy`` (vertex counts in ``sizes``)."""
+    k = 0
+    xs, ys = np.empty(4), np.empty(4)
+    zs, us, vs = np.empty(3), np.empty(3), np.empty(3)
+    # the faces that can matter meet the box holding the eye and the object
+    blo, bhi = np.empty(3), np.empty(3)
+    for a in range(3):
+        blo[a] = min(eye[a], corners[:, a].min())
+        bhi[a] = max(eye[a], corners[:, a].max())
+    for i in range(tris.shape[0]):
+        if lo[i, 0] > bhi[0] or hi[i, 0] < blo[0] or lo[i, 1] > bhi[1] or hi[i, 1] < blo[1] \
+                or lo[i, 2] > bhi[2] or hi[i, 2] < blo[2]:
             continue
-        h = mujoco.mj_ray(model, data, eye, unit[i], DRAWN_GROUPS, 1, -1, geomid)
-        g = int(geomid[0])
-        if h < 0 or h >= d or owners[g] == target:
-            return True
-        if types[g] == _BOX:
-            if reach is None:
-                reach = np.empty(len(dist))
-                box_entries(eye, unit, box[0], box[1], _IDENTITY, _ORIGIN, reach)
-                reach = np.minimum(reach, dist) - RAY_MARGIN_M
-                blocked = np.zeros(len(dist), np.bool_)
-            mark_blocked(eye, unit, reach, model.geom_size[g], data.geom_xmat[g].reshape(3, 3),
-                         data.geom_xpos[g], blocked)
-    return False
+        r = solids[i, 3]
+        if r > 0.0 and (eye[0] - solids[i, 0]) ** 2 + (eye[1] - solids[i, 1]) ** 2 \
+                + (eye[2] - solids[i, 2]) ** 2 <= r * r:
+            continue  # a stand-in seen from inside its geom
+        n0, n1, n2 = normals[i, 0], normals[i, 1], normals[i, 2]
+        v0 = tris[i, 0]
+        # front: the eye in front of the plane, beyond twice the near clipping distance
+        if n0 * (eye[0] - v0[0]) + n1 * (eye[1] - v0[1]) + n2 * (eye[2] - v0[2]) < near:
+            continue
+        for a in range(3):
+            rx, ry, rz = tris[i, a, 0] - eye[0], tris[i, a, 1] - eye[1], tris[i, a, 2] - eye[2]
+            zs[a] = rx * w[0] + ry * w[1] + rz * w[2]
+            us[a] = rx * p[0] + ry * p[1] + rz * p[2]
+            vs[a] = rx * q[0] + ry * q[1] + rz * q[2]
+        m = 0
+        zmin = 1e-3
+        for a in range(3):
+            b = (a + 1) % 3
+            ina, inb = zs[a] >= zmin, zs[b] >= zmin
+            if ina:
+                xs[m], ys[m] = us[a] / zs[a], vs[a] / zs[a]
+                m += 1
+            if ina != inb:
+                t = (zmin - zs[a]) / (zs[b] - zs[a])
+                xs[m] = (us[a] + t * (us[b] - us[a])) / zmin
+                ys[m] = (vs[a] + t * (vs[b] - vs[a])) / zmin
+                m += 1
+        if m < 3:
+            continue
+        if xs[:m].max() < box[0] or xs[:m].min() > box[2] or ys[:m].max() < box[1] \
+                or ys[:m].min() > box[3]:
+            continue
+        ox[k, :m] = xs[:m]
+        oy[k, :m] = ys[:m]
+        sizes[k] = m
+        k += 1
+    return k
+
+
+class Occluders:
+    """The opaque faces of a static scene that can hide an object (the faces of every drawn,
+    opaque geom but those of ``exclude_body``) whose boxes' corners are ``corners`` (N, 3):
+    those it lies behind, for :meth:`look`."""
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, exclude_body: int,
+                 corners: np.ndarray, behind_m: float = BEHIND_M) -> None:
+        """``behind_m``: how far behind a face's plane the object must lie for the face to
+        hide it (:data:`BEHIND_M`; tests pass a wrong value to see the proof fail)."""
+        self.behind_m = behind_m
+        self.corners = np.ascontiguousarray(corners, float)
+        tris, spheres = [], []
+        for g in range(model.ngeom):
+            if model.geom_bodyid[g] == exclude_body or not drawn_opaque(model, g):
+                continue
+            t = geom_triangles(model, data, g)
+            if t is None or not len(t):
+                continue
+            tris.append(t)
+            # a stand-in polyhedron counts only from outside the geom (its bounding sphere)
+            r = float(model.geom_rbound[g]) if _round(model, g) else -1.0
+            spheres.append(np.tile([*data.geom_xpos[g], r], (len(t), 1)))
+        self.triangles = np.ascontiguousarray(np.concatenate(tris) if tris
+                                              else np.zeros((0, 3, 3)))
+        self.solids = np.ascontiguousarray(np.concatenate(spheres) if spheres
+                                           else np.zeros((0, 4)))
+        e1 = self.triangles[:, 1] - self.triangles[:, 0]
+        e2 = self.triangles[:, 2] - self.triangles[:, 0]
+        n = np.cross(e1, e2)
+        length = np.linalg.norm(n, axis=1)
+        keep = length > 1e-12  # degenerate triangles cover nothing
+        unit = n[keep] / length[keep, None]
+        # only faces the object lies wholly behind can hide it (from any eye)
+        behind = ((self.corners[None, :, :] - self.triangles[keep][:, None, 0, :])
+                  * unit[:, None, :]).sum(2).max(1) <= -behind_m
+        self.triangles = np.ascontiguousarray(self.triangles[keep][behind])
+        self.solids = np.ascontiguousarray(self.solids[keep][behind])
+        self.normals = np.ascontiguousarray(unit[behind])
+        self.lo = np.ascontiguousarray(self.triangles.min(1))
+        self.hi = np.ascontiguousarray(self.triangles.max(1))
+        #: twice the renderer's near clipping distance (a fraction of the model's extent)
+        self.near_m = 2 * float(model.vis.map.znear) * float(model.stat.extent)
+
+    def look(self, eye: np.ndarray, points: np.ndarray | None = None) -> Sight:
+        """What of the object can show from ``eye`` (3,); ``points`` (M, 3): points whose
+        hull holds it as drawn (its image; default: the corners)."""
+        eye = np.asarray(eye, float)
+        corners = self.corners
+        points = corners if points is None else np.ascontiguousarray(points, float)
+        frame = _frame(eye, corners)
+        if len(self.triangles) == 0:
+            return Sight(eye, frame, None)
+        xs, ys, ns, count = _leftover(self.triangles, self.normals, self.lo, self.hi,
+                                      self.solids, eye, corners, points, self.near_m, *frame)
+        if count < 0:
+            return Sight(eye, frame, None)
+        return Sight(eye, frame, (xs[:count].copy(), ys[:count].copy(), ns[:count].copy()))
+
+    def hide(self, eye: np.ndarray) -> bool:
+        """Whether the faces hide every point of the hull of the corners from ``eye`` (3,):
+        then no view from there shows any of it. False when it cannot be proven."""
+        return self.look(eye).hidden
+
+
+class Sight:
+    """What of an object can show from one eye point (:meth:`Occluders.look`): convex pieces
+    of directions (gnomonic coordinates about ``frame``'s axis), or None where no bound was
+    found (the object reaches behind the eye, too many pieces)."""
+
+    def __init__(self, eye: np.ndarray, frame: tuple[np.ndarray, np.ndarray, np.ndarray],
+                 pieces: tuple[np.ndarray, np.ndarray, np.ndarray] | None) -> None:
+        self.eye, self.frame, self.pieces = eye, frame, pieces
+
+    @property
+    def hidden(self) -> bool:
+        """Nothing can show: no view from here shows a pixel of the object."""
+        return self.pieces is not None and len(self.pieces[2]) == 0
+
+    def max_pixels(self, yaw_rad: float, tilt_rad: float, size: int, fov_deg: float,
+                   enough: int) -> int:
+        """An upper bound on the pixels of the view (a free camera at the eye, its right
+        vector horizontal; ``size`` square pixels over ``fov_deg``) that can show the object,
+        counted up to ``enough``."""
+        if self.pieces is None:
+            return enough
+        xs, ys, ns = self.pieces
+        if len(ns) == 0:
+            return 0
+        return int(_count_pixels(xs, ys, ns, *self.frame, yaw_rad, tilt_rad, size,
+                                 size / 2 / math.tan(math.radians(fov_deg) / 2), SLACK_PX,
+                                 enough))
+
+    def may_show(self, yaw_rad: float, tilts_rad: np.ndarray, size: int, fov_deg: float,
+                 enough: int) -> np.ndarray:
+        """For each tilt, whether the view can show ``enough`` pixels of the object
+        (:meth:`max_pixels` >= ``enough``)."""
+        tilts_rad = np.asarray(tilts_rad, float)
+        if self.pieces is None:
+            return np.ones(len(tilts_rad), bool)
+        xs, ys, ns = self.pieces
+        if len(ns) == 0:
+            return np.zeros(len(tilts_rad), bool)
+        scale = size / 2 / math.tan(math.radians(fov_deg) / 2)
+        return np.array([_count_pixels(xs, ys, ns, *self.frame, yaw_rad, t, size, scale,
+                                       SLACK_PX, enough) >= enough for t in tilts_rad.tolist()],
+                        bool)
+
+
+@njit(cache=True)
+def _frame(eye, corners):
+    """The gnomonic frame about the direction from ``eye`` to the corners' mean: (w, p, q)."""
+    w = np.empty(3)
+    for a in range(3):
+        w[a] = corners[:, a].mean() - eye[a]
+    w /= np.sqrt((w * w).sum())
+    up = np.array([0.0, 0.0, 1.0]) if abs(w[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    p = np.cross(up, w)
+    p /= np.sqrt((p * p).sum())
+    q = np.cross(w, p)
+    return w, p, q
+
+
+@njit(cache=True)
+def _leftover(tris, normals, lo, hi, solids, eye, corners, points, near, w, p, q):
+    """The pieces of the object's grown image that no face hides (see :func:`subtract`)."""
+    for j in range(corners.shape[0]):
+        if (corners[j, 0] - eye[0]) * w[0] + (corners[j, 1] - eye[1]) * w[1] \
+                + (corners[j, 2] - eye[2]) * w[2] <= 0.01:
+            e = np.empty((1, 1))
+            return e, e, np.zeros(1, np.int64), -1
+    # the object's image: within the 32-sided polygon of its points' images' extents along
+    # 16 directions, every side pushed out by the margin
+    n = points.shape[0]
+    ix, iy = np.empty(n), np.empty(n)
+    for j in range(n):
+        rx, ry, rz = points[j, 0] - eye[0], points[j, 1] - eye[1], points[j, 2] - eye[2]
+        z = rx * w[0] + ry * w[1] + rz * w[2]
+        ix[j] = (rx * p[0] + ry * p[1] + rz * p[2]) / z
+        iy[j] = (rx * q[0] + ry * q[1] + rz * q[2]) / z
+    hx, hy = np.empty(MAX_VERTICES), np.empty(MAX_VERTICES)
+    tx, ty = np.empty(MAX_VERTICES), np.empty(MAX_VERTICES)
+    big = 1e3
+    hx[:4] = np.array([-big, big, big, -big])
+    hy[:4] = np.array([-big, -big, big, big])
+    hn = 4
+    for k in range(2 * _SIDES):
+        a = np.pi * k / _SIDES
+        c, s_ = np.cos(a), np.sin(a)
+        reach = -np.inf
+        for j in range(n):
+            reach = max(reach, c * ix[j] + s_ * iy[j])
+        reach += MARGIN
+        hn = clip(hx, hy, hn, -c, -s_, reach, tx, ty)  # keep c x + s y <= reach
+        hx[:hn], hy[:hn] = tx[:hn], ty[:hn]
+    box = np.array([hx[:hn].min(), hy[:hn].min(), hx[:hn].max(), hy[:hn].max()])
+    ox = np.empty((len(tris), 4))
+    oy = np.empty((len(tris), 4))
+    sizes = np.zeros(len(tris), np.int64)
+    k = _project_faces(tris, normals, lo, hi, solids, eye, corners, w, p, q, box, near, ox, oy,
+                       sizes)
+    return subtract(hx, hy, hn, ox, oy, sizes, k, DUST, MAX_PIECES)
+
+
+@njit(cache=True)
+def _count_pixels(xs, ys, ns, w, p, q, yaw, tilt, size, scale, slack, enough):
+    """Pixel centres of the view within ``slack`` pixels of the pieces, up to ``enough``."""
+    ct, st, cy, sy = math.cos(tilt), math.sin(tilt), math.cos(yaw), math.sin(yaw)
+    f = np.array([ct * cy, ct * sy, st])
+    r = np.array([sy, -cy, 0.0])
+    u = np.array([r[1] * f[2] - r[2] * f[1], r[2] * f[0] - r[0] * f[2],
+                  r[0] * f[1] - r[1] * f[0]])
+    half = size / 2
+    total = 0
+    cx, cy_ = np.empty(xs.shape[1]), np.empty(xs.shape[1])
+    for i in range(len(ns)):
+        m = ns[i]
+        for v in range(m):
+            d = w + xs[i, v] * p + ys[i, v] * q
+            z = (d * f).sum()
+            if z <= 1e-9:
+                return enough  # the piece reaches behind the view: no bound
+            cx[v] = half + scale * (d * r).sum() / z
+            cy_[v] = half - scale * (d * u).sum() / z
+        area = 0.0
+        for v in range(m):
+            j = (v + 1) % m
+            area += cx[v] * cy_[j] - cx[j] * cy_[v]
+        orient = 1.0 if area >= 0.0 else -1.0
+        c0 = max(int(math.floor(cx[:m].min() - slack - 0.5)), 0)
+        c1 = min(int(math.ceil(cx[:m].max() + slack - 0.5)), size - 1)
+        r0 = max(int(math.floor(cy_[:m].min() - slack - 0.5)), 0)
+        r1 = min(int(math.ceil(cy_[:m].max() + slack - 0.5)), size - 1)
+        for row in range(r0, r1 + 1):
+            py_ = row + 0.5
+            for col in range(c0, c1 + 1):
+                px_ = col + 0.5
+                inside = True
+                for v in range(m):
+                    j = (v + 1) % m
+                    ex, ey = cx[j] - cx[v], cy_[j] - cy_[v]
+                    length = math.sqrt(ex * ex + ey * ey)
+                    if length == 0.0:
+                        continue
+                    if orient * (ex * (py_ - cy_[v]) - ey * (px_ - cx[v])) / length < -slack:
+                        inside = False
+                        break
+                if inside:
+                    total += 1
+                    if total >= enough:
+                        return total
+    return total
+
+
+__all__ = ["DRAWN_GROUPS", "Occluders", "Sight", "drawn_opaque", "geom_points", "geom_triangles",
+           "BEHIND_M",
+           "MARGIN", "SLACK_PX"]

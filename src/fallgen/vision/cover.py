@@ -1,0 +1,159 @@
+"""A convex polygon minus a union of convex polygons, in the plane (compiled).
+
+:func:`subtract` subtracts the covering polygons one at a time from what is left of the
+polygon, kept as convex pieces: a piece minus a convex polygon is the piece clipped to the
+outside of each edge in turn (at most one new piece an edge), so the pieces stay convex and
+disjoint. Pieces of area below ``dust`` (the rounding of shared edges) are dropped. Beyond
+``max_pieces`` pieces it gives up (count -1). :func:`covered`: no piece is left.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+#: Vertices a piece may have (a convex polygon clipped by half-planes gains at most one each).
+MAX_VERTICES = 64
+
+
+@njit(cache=True)
+def area2(xs, ys, n):
+    """Twice the signed area of the polygon's first ``n`` vertices."""
+    s = 0.0
+    for i in range(n):
+        j = (i + 1) % n
+        s += xs[i] * ys[j] - xs[j] * ys[i]
+    return s
+
+
+@njit(cache=True)
+def clip(xs, ys, n, a, b, c, ox, oy):
+    """The polygon (first ``n`` vertices) clipped to a x + b y + c >= 0, into ``ox``, ``oy``;
+    returns its vertex count."""
+    m = 0
+    for i in range(n):
+        j = (i + 1) % n
+        si = a * xs[i] + b * ys[i] + c
+        sj = a * xs[j] + b * ys[j] + c
+        if si >= 0.0:
+            ox[m], oy[m] = xs[i], ys[i]
+            m += 1
+        if (si >= 0.0) != (sj >= 0.0):
+            t = si / (si - sj)
+            ox[m] = xs[i] + t * (xs[j] - xs[i])
+            oy[m] = ys[i] + t * (ys[j] - ys[i])
+            m += 1
+        if m >= MAX_VERTICES - 1:
+            return -1
+    return m
+
+
+@njit(cache=True)
+def convex_hull(px, py, n, ox, oy):
+    """The convex hull (counter-clockwise, Andrew's monotone chain) of ``n`` points into
+    ``ox``, ``oy``; returns its vertex count."""
+    order = np.argsort(px[:n] + 1e-12 * py[:n])
+    xs, ys = px[:n][order], py[:n][order]
+    # sort by x, then y (argsort on x alone leaves ties in input order: fix them up)
+    for i in range(1, n):
+        j = i
+        while j > 0 and xs[j - 1] == xs[j] and ys[j - 1] > ys[j]:
+            xs[j - 1], xs[j] = xs[j], xs[j - 1]
+            ys[j - 1], ys[j] = ys[j], ys[j - 1]
+            j -= 1
+    hx, hy = np.empty(2 * n + 1), np.empty(2 * n + 1)
+    k = 0
+    for i in range(n):
+        while k >= 2 and (hx[k - 1] - hx[k - 2]) * (ys[i] - hy[k - 2]) \
+                - (hy[k - 1] - hy[k - 2]) * (xs[i] - hx[k - 2]) <= 0.0:
+            k -= 1
+        hx[k], hy[k] = xs[i], ys[i]
+        k += 1
+    lower = k + 1
+    for i in range(n - 2, -1, -1):
+        while k >= lower and (hx[k - 1] - hx[k - 2]) * (ys[i] - hy[k - 2]) \
+                - (hy[k - 1] - hy[k - 2]) * (xs[i] - hx[k - 2]) <= 0.0:
+            k -= 1
+        hx[k], hy[k] = xs[i], ys[i]
+        k += 1
+    k -= 1  # the last point is the first
+    for i in range(k):
+        ox[i], oy[i] = hx[i], hy[i]
+    return k
+
+
+@njit(cache=True)
+def subtract(gx, gy, gn, cx, cy, cn, count, dust, max_pieces):
+    """The convex polygon (``gx``, ``gy``, its first ``gn`` vertices) minus the union of the
+    ``count`` convex polygons ``cx[i, :cn[i]]``, ``cy[i, :cn[i]]`` (either orientation), as
+    disjoint convex pieces: (xs, ys, vertex counts, number of pieces); -1 pieces when more
+    than ``max_pieces`` were needed."""
+    px = np.empty((max_pieces, MAX_VERTICES))
+    py = np.empty((max_pieces, MAX_VERTICES))
+    pn = np.zeros(max_pieces, np.int64)
+    qx = np.empty((max_pieces, MAX_VERTICES))
+    qy = np.empty((max_pieces, MAX_VERTICES))
+    qn = np.zeros(max_pieces, np.int64)
+    sign = 1.0 if area2(gx, gy, gn) >= 0.0 else -1.0
+    for i in range(gn):  # counter-clockwise
+        k = i if sign > 0 else gn - 1 - i
+        px[0, i], py[0, i] = gx[k], gy[k]
+    pn[0] = gn
+    pieces = 1
+    ax, ay = np.empty(MAX_VERTICES), np.empty(MAX_VERTICES)
+    bx, by = np.empty(MAX_VERTICES), np.empty(MAX_VERTICES)
+    for t in range(count):
+        m = cn[t]
+        orient = 1.0 if area2(cx[t], cy[t], m) >= 0.0 else -1.0
+        x0, x1 = cx[t, :m].min(), cx[t, :m].max()
+        y0, y1 = cy[t, :m].min(), cy[t, :m].max()
+        out = 0
+        for p in range(pieces):
+            n = pn[p]
+            if px[p, :n].max() <= x0 or px[p, :n].min() >= x1 or py[p, :n].max() <= y0 \
+                    or py[p, :n].min() >= y1:
+                if out >= max_pieces:
+                    return px, py, pn, -1
+                qx[out, :n], qy[out, :n], qn[out] = px[p, :n], py[p, :n], n
+                out += 1
+                continue
+            # what is left of the piece inside the edges so far
+            for v in range(n):
+                ax[v], ay[v] = px[p, v], py[p, v]
+            na = n
+            for e in range(m):
+                f = (e + 1) % m
+                # inside: left of the edge for a counter-clockwise polygon
+                a = -(cy[t, f] - cy[t, e]) * orient
+                b = (cx[t, f] - cx[t, e]) * orient
+                c = -(a * cx[t, e] + b * cy[t, e])
+                # the part outside this edge is left over
+                nb = clip(ax, ay, na, -a, -b, -c, bx, by)
+                if nb < 0:
+                    return px, py, pn, -1
+                if nb >= 3 and abs(area2(bx, by, nb)) > 2 * dust:
+                    if out >= max_pieces:
+                        return px, py, pn, -1
+                    qx[out, :nb], qy[out, :nb], qn[out] = bx[:nb], by[:nb], nb
+                    out += 1
+                na = clip(ax, ay, na, a, b, c, bx, by)
+                if na < 0:
+                    return px, py, pn, -1
+                for v in range(na):
+                    ax[v], ay[v] = bx[v], by[v]
+                if na < 3:
+                    break
+        px, qx = qx, px
+        py, qy = qy, py
+        pn, qn = qn, pn
+        pieces = out
+        if pieces == 0:
+            break
+    return px, py, pn, pieces
+
+
+@njit(cache=True)
+def covered(gx, gy, gn, cx, cy, cn, count, dust, max_pieces):
+    """Whether the convex polygon lies in the union of the convex polygons (see
+    :func:`subtract`; False when it gives up)."""
+    return subtract(gx, gy, gn, cx, cy, cn, count, dust, max_pieces)[3] == 0
