@@ -45,3 +45,61 @@ def test_a_failed_write_leaves_the_old_file(tmp_path, monkeypatch):
         atomic.write_text(p, "new")
     assert p.read_text() == "old"
     assert [q.name for q in tmp_path.iterdir()] == ["a.txt"]
+
+
+def test_a_fault_point_fails_the_kth_write_as_a_full_disk(tmp_path, monkeypatch):
+    """FALLGEN_FAULT=enospc:K: the K-th write of the process raises ENOSPC naming its file,
+    and leaves neither a temporary nor a partial file; the old file stays."""
+    import errno
+
+    p = atomic.write_text(tmp_path / "a.txt", "old")
+    monkeypatch.setenv(atomic.FAULT_ENV, "enospc:2")
+    monkeypatch.setattr(atomic, "_WRITES", [0])
+    atomic.write_text(tmp_path / "b.txt", "b")  # the first write
+    with pytest.raises(OSError) as e:
+        atomic.write_text(p, "new")
+    assert e.value.errno == errno.ENOSPC and e.value.filename == str(p)
+    tmp = tmp_path / "c.tmp"
+    tmp.write_bytes(b"c")
+    atomic.commit(tmp, tmp_path / "c.bin")  # the third: no fault
+    assert p.read_text() == "old"
+    assert sorted(q.name for q in tmp_path.iterdir()) == ["a.txt", "b.txt", "c.bin"]
+    monkeypatch.setattr(atomic, "_WRITES", [0])
+    monkeypatch.setenv(atomic.FAULT_ENV, "enospc:1")
+    tmp.write_bytes(b"d")
+    with pytest.raises(OSError):
+        atomic.commit(tmp, tmp_path / "d.bin")
+    assert not tmp.exists() and not (tmp_path / "d.bin").exists()
+
+
+def test_a_write_error_names_its_file(tmp_path, monkeypatch):
+    """A full disk reported without a file name (by a write, or by pyarrow's writer) is
+    raised naming the file being written."""
+    import errno
+
+    e = atomic.named(OSError("Error writing bytes. Detail: [errno 28] No space left on device"),
+                     tmp_path / "x")
+    assert e.errno == errno.ENOSPC and e.filename == str(tmp_path / "x")
+    real = os.fdopen
+
+    class Full:
+        def __init__(self, f):
+            self.f = f
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *a):
+            self.f.close()
+
+        def fileno(self):
+            return self.f.fileno()
+
+        def write(self, data):
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(os, "fdopen", lambda fd, mode: Full(real(fd, mode)))
+    with pytest.raises(OSError) as err:
+        atomic.write_bytes(tmp_path / "y.bin", b"data")
+    assert err.value.filename == str(tmp_path / "y.bin") and err.value.errno == errno.ENOSPC
+    assert list(tmp_path.iterdir()) == []
