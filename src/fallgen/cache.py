@@ -14,7 +14,13 @@ Deleting the directory is always safe; results do not depend on whether an entry
 from __future__ import annotations
 
 import os
+import zipfile
 from pathlib import Path
+
+#: what reading a corrupt or truncated ``.npz`` entry raises (numpy's zip reader raises
+#: BadZipFile for a bad CRC or a damaged directory, EOFError or ValueError for a short file,
+#: KeyError for a missing array): such an entry is removed and recomputed
+CORRUPT_ENTRY = (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile)
 
 
 def cache_root() -> Path:

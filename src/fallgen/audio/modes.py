@@ -23,7 +23,7 @@ from fallgen.atomic import write_bytes
 from fallgen.audio.fem import lattice, solve_modes
 from fallgen.audio.shells import shell_modes
 from fallgen.audio.voxelize import VoxelSolid, voxel_size, voxelize
-from fallgen.cache import cache_root
+from fallgen.cache import CORRUPT_ENTRY, cache_root
 from fallgen.world.shell import ThinShell
 
 E_REF = 1.0e10  # Pa
@@ -226,7 +226,7 @@ def modal_model(vertices: np.ndarray, faces: np.ndarray, nu: float,
     if path.exists():
         try:
             return _load(path)
-        except (OSError, ValueError, KeyError):
+        except CORRUPT_ENTRY:
             path.unlink(missing_ok=True)  # a corrupt cache entry is recomputed
     m = solve_shape(vertices, faces, round_nu(nu), settings)
     _save(path, m)
