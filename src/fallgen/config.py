@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from fallgen.audio.ambient import DEFAULT_NOISE_DB_A
+from fallgen.errors import InputError
 from fallgen.fields import Fields, load_toml
 from fallgen.physics.settle import SettleCriteria
 
@@ -61,7 +62,49 @@ class BuildConfig:
     generate: GenerateConfig = GenerateConfig()
 
 
+#: the keys of each table, checked before any is read (an unknown key is named as unknown,
+#: not as the required key it displaced)
+BUILD_KEYS = ("root_seed", "out")
+REHEARSE_KEYS = ("rooms", "zones", "events_per_zone", "max_trials_per_zone", "drop_height_m",
+                 "min_fall_m", "push_speed_mps", "spin_radps", "settle_lin_mps",
+                 "settle_ang_radps", "settle_hold_s", "timeout_s")
+GENERATE_KEYS = ("episodes", "frames", "hrtf", "audio_s", "image_source_order",
+                 "episodes_per_shard", "ambient_noise_db_a", "min_heard_peak_db_spl",
+                 "appearance", "appearance_randomization")
+#: seeds are 64-bit signed integers in the dataset (the ``root_seed`` column)
+MAX_SEED = 2 ** 63 - 1
+#: what marks a directory as a source tree, not a place for a dataset
+SOURCE_MARKERS = ("pyproject.toml", "setup.py", "setup.cfg", ".git")
+
+
+def check_out(out: str | Path, file: str | Path = "<command line>",
+              key: str = "--out") -> Path:
+    """``out`` as a dataset directory, or an InputError: not empty (the current directory),
+    not a file, not a source tree (a directory holding pyproject.toml, setup.py or .git),
+    not a directory whose README.md is not a dataset card (the card would overwrite it)."""
+    if not str(out).strip():
+        raise InputError(file, key, "empty (that would build into the current directory); "
+                         "give a directory of its own, e.g. build/NAME")
+    p = Path(out)
+    if p.exists() and not p.is_dir():
+        raise InputError(file, key, f"{p} is a file, not a directory")
+    if p.is_dir():
+        for m in SOURCE_MARKERS:
+            if (p / m).exists():
+                raise InputError(file, key, f"{p} holds {m}: a source tree, not a dataset "
+                                 "directory; build into a directory of its own, e.g. build/NAME")
+        card = p / "README.md"
+        if card.is_file():
+            from fallgen.dataset.integrity import is_card
+
+            if not is_card(card):
+                raise InputError(file, key, f"{card} is not a fallgen dataset card (the build "
+                                 "would overwrite it); build into a directory of its own")
+    return p
+
+
 def _rehearse(f: Fields) -> RehearseConfig:
+    f.reject_unknown(REHEARSE_KEYS)
     r = RehearseConfig(
         rooms=f.str("rooms"),
         zones=f.str("zones", "*"),
@@ -85,9 +128,10 @@ def _rehearse(f: Fields) -> RehearseConfig:
 
 
 def _generate(f: Fields) -> GenerateConfig:
+    f.reject_unknown(GENERATE_KEYS)
     e = f.table("episodes")
+    e.reject_unknown(SPLITS)
     counts = tuple(e.int(s, lo=0, hi=10_000_000) for s in SPLITS)
-    e.reject_unknown()
     g = GenerateConfig(
         episodes=counts,  # type: ignore[arg-type]
         frames=f.str("frames", choices=("first", "trajectory")),
@@ -105,16 +149,27 @@ def _generate(f: Fields) -> GenerateConfig:
                       "textured views)")
     if sum(g.episodes) == 0:
         raise e.error(SPLITS[0], "at least one episode is needed")
+    if g.hrtf and not Path(g.hrtf).is_file():
+        raise f.error("hrtf", f"no such file: {g.hrtf}")
     f.reject_unknown()
     return g
 
 
 def load_config(path: str | Path) -> BuildConfig:
     """Load and validate a build config; every field is required (no silent defaults)."""
+    try:
+        Path(path).read_bytes().decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise InputError(path, "<file>", f"not UTF-8 text (byte {e.start}); save the config "
+                         "as UTF-8") from None
+    except OSError:
+        pass  # load_toml names it
     f = load_toml(path)
+    f.reject_unknown(("build", "rehearse", "generate"))
     b = f.table("build")
-    root_seed = b.int("root_seed", lo=0)
-    out = Path(b.str("out"))
+    b.reject_unknown(BUILD_KEYS)
+    root_seed = b.int("root_seed", lo=0, hi=MAX_SEED)
+    out = check_out(b.str("out"), path, "build.out")
     b.reject_unknown()
     cfg = BuildConfig(root_seed, out, _rehearse(f.table("rehearse")), Path(path),
                       _generate(f.table("generate")))

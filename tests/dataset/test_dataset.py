@@ -197,7 +197,7 @@ def test_validate_accounts_for_dropped_episodes(tiny_build, tmp_path):
     def write(dropped) -> list[str]:
         meta["dropped"] = dropped
         pq.write_table(empty.replace_schema_metadata({"fallgen": json.dumps(meta)}), p)
-        finalize(root, m["config"], m["root_seed"], m["settings"])
+        finalize(root, m["config"], m["root_seed"], m["settings"], build=m["build"])
         return validate(root)
 
     assert any("contiguous" in s for s in write([]))

@@ -37,6 +37,22 @@ def test_local_pool_runs_init_once_per_worker_and_keeps_order():
         list(parallel_map(_square, [1], _set_offset, (0,), 1, executor="dask"))
 
 
+def _refuse(x: int) -> int:
+    from fallgen.errors import InputError
+
+    raise InputError(f"file{x}.sofa", "Data.IR", "not two ears")
+
+
+def test_a_workers_input_error_reaches_the_parent_whole():
+    """An InputError raised in a worker is the parent's one-line error, not a TypeError from
+    rebuilding it (a missing HRTF file with 2 workers ended in a traceback)."""
+    from fallgen.errors import InputError
+
+    with pytest.raises(InputError) as e:
+        list(parallel_map(_refuse, [3], _set_offset, (0,), workers=1))
+    assert str(e.value) == "file3.sofa: Data.IR: not two ears"
+
+
 @pytest.mark.xdist_group("tiny_build")
 def test_shard_index_runs_then_finalize_give_the_same_bytes(tiny_build, tmp_path, cli, digest):
     base, cfg = tiny_build

@@ -1,18 +1,11 @@
 """`fallgen generate`: shards from a rehearsal (one room kind each), the same bytes whatever the
-worker count, resume by shard and after kill -9, one-line error without a rehearsal (in the
-``tiny_build`` fixture, tests/conftest.py)."""
+worker count, resume by shard, one-line error without a rehearsal (in the ``tiny_build``
+fixture, tests/conftest.py). Killed builds: tests/pipeline/test_integrity.py."""
 
 from __future__ import annotations
 
 import json
-import os
-import random
 import shutil
-import signal
-import subprocess
-import sys
-import time
-from pathlib import Path
 
 import pytest
 
@@ -74,48 +67,6 @@ def test_resume_redoes_only_missing_shards(tiny_build, tmp_path, cli, digest):
     assert digest(root) == before
 
 
-def _final_files_whole(root: Path) -> None:
-    """Every file under a final name is complete: Parquet readable, HDF5 openable."""
-    import h5py
-    import pyarrow.parquet as pq
-
-    for p in (root / "data").glob("*.parquet"):
-        pq.read_table(p)
-        assert (root / "media" / p.name.replace(".parquet", ".h5")).exists()
-    for p in (root / "media").glob("*.h5"):
-        with h5py.File(p, "r") as f:
-            assert "audio" in f
-
-
-def test_kill_9_at_random_points_then_resume_gives_the_same_bytes(tiny_build, tmp_path, cli,
-                                                                  digest):
-    """A real `fallgen generate` process is killed (SIGKILL) at random moments, three times;
-    after each kill nothing partial sits under a final name, and rerunning the same command
-    finishes the build with the bytes of an uninterrupted one."""
-    base, cfg = tiny_build
-    root = tmp_path / "ds"
-    shutil.copytree(base / "one" / "rehearsal", root / "rehearsal")
-    cmd = [sys.executable, "-m", "fallgen", "generate", "-c", str(cfg), "--out", str(root)]
-    env = dict(os.environ)  # the fixture's warm modal cache
-    rng = random.Random()
-    delays = []
-    for _ in range(3):
-        delay = rng.uniform(1.0, 8.0)
-        delays.append(round(delay, 2))
-        p = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                             start_new_session=True)
-        time.sleep(delay)
-        if p.poll() is None:
-            os.killpg(p.pid, signal.SIGKILL)
-        p.wait()
-        _final_files_whole(root)
-    done = subprocess.run(cmd, env=env, capture_output=True, text=True)
-    assert done.returncode == 0, (delays, done.stderr[-2000:])
-    dirs = ("data", "media", ".")
-    assert digest(root, dirs) == digest(base / "one", dirs), f"killed after {delays} s"
-    assert cli("validate", str(root)) == 0
-
-
 def test_a_shard_loads_only_the_events_it_can_use(tiny_build):
     """Planning reads only ids and kinds; a shard's events are its episodes' events and their
     fallbacks, loaded from their own variants' files, and equal to the full load's."""
@@ -168,31 +119,36 @@ def test_heap_trimmer_waits_for_growth_above_what_a_trim_left(monkeypatch):
     assert t.trims == len(calls) == 3 and t.left_mb == 860
 
 
-def test_resuming_into_another_versions_shards_is_an_error(tmp_path):
-    """A shard whose rows have other columns (made by another fallgen) is not kept as done:
-    resuming would mix two versions' episodes; one line naming the file and 'columns'."""
+def test_a_shard_is_kept_only_as_it_was_written_by_the_same_inputs(tmp_path):
+    """A shard's state against a stamp (what the build would make it from): missing, ok,
+    stale (another fingerprint: which input differs is said), corrupt (its bytes changed, a
+    file gone, no write record: e.g. a shard of another fallgen with other columns)."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
+    from fallgen.dataset.integrity import Stamp, record_path, shard_state
     from fallgen.dataset.schema import COLUMNS
-    from fallgen.errors import InputError
-    from fallgen.pipeline.generate import ShardJob
-
-    job = ShardJob("train", 0, 1, "kitchen", ())
-    assert not job.done(tmp_path)
-    (tmp_path / "data").mkdir()
-    path = tmp_path / "data" / f"{job.name}.parquet"
-    pq.write_table(pa.table({c: [] for c in list(COLUMNS)[:-1]}), path)
-    with pytest.raises(InputError, match="columns") as e:
-        job.done(tmp_path)
-    assert str(path) in str(e.value) and "\n" not in str(e.value)
-    pq.write_table(pa.table({c: pa.array([], pa.null()) for c in COLUMNS}), path)
-    assert job.done(tmp_path)
-    # a shard whose every episode was dropped, as ShardWriter writes it, is done too (the
-    # check refused it, so a build with such a shard could not finish)
     from fallgen.dataset.writer import ShardWriter
 
-    path.unlink()
-    w = ShardWriter(tmp_path, "train", 0, 1, ("floor",))
-    w.close([], [[0, [["e0", "inaudible"]]]])
-    assert job.done(tmp_path)
+    base = {"build": "b", "config.generate.audio_s": 2.0, "code.nav": "n1"}
+    stamp = Stamp(base)
+    name = "train-00000-of-00001"
+    assert shard_state(tmp_path, name, stamp).status == "missing"
+    w = ShardWriter(tmp_path, "train", 0, 1, ("floor",), stamp)
+    w.close([], [[0, [["e0", "inaudible"]]]])  # every episode dropped: still a shard
+    assert shard_state(tmp_path, name, stamp).ok
+    st = shard_state(tmp_path, name, Stamp({**base, "config.generate.audio_s": 1.0,
+                                            "code.nav": "n2"}))
+    assert st.status == "stale" and "config.generate.audio_s 2.0 -> 1.0" in st.reason
+    assert "the code of fallgen.nav" in st.reason
+    data = tmp_path / "data" / f"{name}.parquet"
+    meta = pq.read_schema(data).metadata
+    pq.write_table(pa.table({c: [] for c in list(COLUMNS)[:-1]}).replace_schema_metadata(meta),
+                   data)
+    st = shard_state(tmp_path, name, stamp)
+    assert st.status == "corrupt" and f"data/{name}.parquet is " in st.reason  # its size
+    record_path(tmp_path, name).unlink()
+    assert shard_state(tmp_path, name, stamp).reason == "no record of what was written"
+    (tmp_path / "media" / f"{name}.h5").unlink()
+    data.unlink()
+    assert shard_state(tmp_path, name, stamp).status == "missing"

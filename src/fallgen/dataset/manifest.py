@@ -1,12 +1,15 @@
-"""``DATASET/manifest.json``: what a build is (config, versions, seed, counts) and the sha256 of
-every file, so a download can be checked (``fallgen validate``). Written last, atomically, with
-sorted keys and no timestamps: the same build gives the same bytes."""
+"""``DATASET/manifest.json``: what a build is (config, versions, seed, counts, and ``build``: the
+fingerprint every shard of it carries, with the inputs it hashes) and the sha256 of every file,
+so a download can be checked (``fallgen validate``). Written last, atomically, with sorted keys
+and no timestamps: the same build gives the same bytes. A build writes it only from shards it
+has checked against their write records (:func:`fallgen.pipeline.generate.finalize_build`)."""
 
 from __future__ import annotations
 
 import hashlib
 import json
 import platform
+from collections.abc import Callable
 from pathlib import Path
 
 import pyarrow.parquet as pq
@@ -36,7 +39,7 @@ def manifest_sha256(root: Path) -> str | None:
 
 def listed_files(root: Path) -> list[Path]:
     files = [p for d in LISTED for p in (root / d).glob("*")
-             if p.is_file() and not p.name.endswith(".tmp")]
+             if p.is_file() and not p.name.endswith(".tmp") and not p.name.startswith(".")]
     return sorted(files + [root / CARD] if (root / CARD).is_file() else files)
 
 
@@ -62,22 +65,29 @@ def counts(root: Path) -> dict[str, int]:
     return out
 
 
-def write_manifest(root: Path, config_text: str, root_seed: int, settings: dict) -> Path:
-    files = {str(p.relative_to(root)): {"sha256": sha256(p), "bytes": p.stat().st_size}
-             for p in listed_files(root)}
+def write_manifest(root: Path, config_text: str, root_seed: int, settings: dict,
+                   build: dict | None = None,
+                   hash_of: Callable[[Path], dict] | None = None) -> Path:
+    """``build``: the build's fingerprint and inputs; ``hash_of(path)``: a file's sha256 and
+    size (default: read it now)."""
+    entry = hash_of or (lambda p: {"sha256": sha256(p), "bytes": p.stat().st_size})
+    files = {str(p.relative_to(root)): entry(p) for p in listed_files(root)}
     m = {"format_version": FORMAT_VERSION, "root_seed": root_seed, "versions": versions(),
          "config": config_text, "settings": settings, "episodes": counts(root), "files": files}
+    if build is not None:
+        m["build"] = build
     path = root / MANIFEST
     write_text(path, json.dumps(m, indent=1, sort_keys=True) + "\n")
     return path
 
 
-def finalize(root: Path, config_text: str, root_seed: int, settings: dict) -> Path:
+def finalize(root: Path, config_text: str, root_seed: int, settings: dict,
+             build: dict | None = None, hash_of: Callable[[Path], dict] | None = None) -> Path:
     """Once every shard exists: the dataset card, then the manifest (which lists the card)."""
     from fallgen.dataset.card import write_card
 
     write_card(root, config_text, root_seed, versions(), settings)
-    return write_manifest(root, config_text, root_seed, settings)
+    return write_manifest(root, config_text, root_seed, settings, build, hash_of)
 
 
 def read_manifest(root: Path) -> dict:

@@ -8,12 +8,19 @@ the audio (see ``UNCOMPRESSED``): ``audio`` (N, 2, T) float32 (ear pressure / 20
 metres, ``instance`` and ``category`` (N, 300, 300) int16, and ``occupancy/{row}`` (nx, ny) uint8
 per episode (rooms differ in size); with trajectory frames, ``frames/{row}/rgb`` etc.
 
-Files are written under a temporary name and renamed when complete (the media first, then the
-rows), without timestamps, so a shard's bytes depend only on its episodes.
+Files are written under a temporary name of the writer's own (pid and a random token) and
+renamed when complete (the media first, then the rows), without timestamps, so a shard's bytes
+depend only on its episodes. A shard made by a build carries what made it
+(:class:`fallgen.dataset.integrity.Stamp`): its fingerprint in the media file's attributes and in
+the rows' metadata (with the build's fingerprint, its events' hashes and the media file's
+sha256), and a write record of both files' sha256 (``.fallgen/shards/NAME.json``, written just
+before the rows are renamed into place). A write that fails (a full disk) raises ``OSError``
+and leaves neither file under its final name.
 """
 
 from __future__ import annotations
 
+import errno
 import json
 from pathlib import Path
 
@@ -22,7 +29,8 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from fallgen.atomic import commit
+from fallgen.atomic import commit, fault_point, named
+from fallgen.dataset.integrity import Stamp, file_entry, record_path, tmp_name, write_record
 from fallgen.dataset.schema import COLUMNS
 from fallgen.nav.agent import ACTIONS
 from fallgen.physics.events import fall_height_m
@@ -106,17 +114,26 @@ class ShardWriter:
     episode) per :meth:`add`; ``occupancy/{row}`` and ``frames/{row}/...`` are added per row."""
 
     def __init__(self, root: Path, split: str, i: int, n: int,
-                 category_labels: tuple[str, ...]) -> None:
-        self.split, self.i, self.n = split, i, n
-        name = shard_name(split, i, n)
-        self.media = root / "media" / f"{name}.h5"
-        self.data = root / "data" / f"{name}.parquet"
+                 category_labels: tuple[str, ...], stamp: Stamp | None = None) -> None:
+        self.root, self.split, self.i, self.n, self.stamp = Path(root), split, i, n, stamp
+        self.name = name = shard_name(split, i, n)
+        self.media = self.root / "media" / f"{name}.h5"
+        self.data = self.root / "data" / f"{name}.parquet"
         self.media.parent.mkdir(parents=True, exist_ok=True)
         self.data.parent.mkdir(parents=True, exist_ok=True)
-        self._tmp = self.media.with_name(self.media.name + ".tmp")
-        self._h5 = h5py.File(self._tmp, "w", track_order=False)
-        self._h5.attrs["actions"] = json.dumps(ACTIONS)
-        self._h5.attrs["category_labels"] = json.dumps(list(category_labels))
+        self._tmp = tmp_name(self.media)
+        self._committed: list[Path] = []  # final files close() made (removed by abort())
+        self._sink = _Sink(self._tmp, self.media)
+        try:
+            self._h5 = h5py.File(self._sink, "w", track_order=False)
+            self._h5.attrs["actions"] = json.dumps(ACTIONS)
+            self._h5.attrs["category_labels"] = json.dumps(list(category_labels))
+            if stamp is not None:
+                self._h5.attrs["fingerprint"] = stamp.fingerprint
+            self._sink.check()
+        except BaseException:
+            self.abort()
+            raise
         self.rows = 0
 
     def _append(self, name: str, a: np.ndarray) -> None:
@@ -145,36 +162,131 @@ class ShardWriter:
             _dataset(g, "rgb", np.stack([v.rgb for v in ep.frames]))
             _dataset(g, "depth", np.stack([v.depth for v in ep.frames]).astype(np.float16))
             _dataset(g, "instance", np.stack([v.instance for v in ep.frames]))
+        fault_point(self.media)
+        self._h5.flush()  # HDF5 writes cached chunks lazily: a full disk shows now
+        self._sink.check()
         self.rows += 1
         return k
 
     def close(self, rows: list[dict], dropped: list = ()) -> tuple[Path, Path]:
         """Finish the media file, then write the rows. ``dropped``: planned episodes no event
         could make, as [episode_id, [[event_id, reason], ...]], kept in the Parquet schema's
-        metadata (key ``fallgen``) so that ``validate`` and ``stats`` can account for them."""
+        metadata (key ``fallgen``) so that ``validate`` and ``stats`` can account for them.
+        On failure the caller calls :meth:`abort`."""
         if len(rows) != self.rows:
             raise ValueError(f"{len(rows)} rows for {self.rows} episodes")
         self._h5.close()
+        self._sink.close()
+        media = file_entry(self._tmp)
         commit(self._tmp, self.media)
+        self._committed.append(self.media)
         table = pa.Table.from_pylist(rows) if rows else \
             pa.table({"episode_id": pa.array([], pa.int64())})
         meta = {"split": self.split, "shard": self.i, "num_shards": self.n,
                 "dropped": [list(d) for d in dropped]}
+        st = self.stamp
+        if st is not None:
+            meta.update(fingerprint=st.fingerprint, build=st.inputs["build"],
+                        events=st.prefixed("events."), media_sha256=media["sha256"])
         table = table.replace_schema_metadata({META_KEY: json.dumps(meta, sort_keys=True)})
-        tmp = self.data.with_name(self.data.name + ".tmp")
-        pq.write_table(table, tmp, compression="zstd")
-        commit(tmp, self.data)
+        tmp = tmp_name(self.data)
+        try:
+            try:
+                pq.write_table(table, tmp, compression="zstd")
+            except OSError as e:  # pyarrow names no file
+                raise named(e, self.data) from None
+            if st is not None:
+                self._committed.append(record_path(self.root, self.name))
+                write_record(self.root, self.name, st, {f"data/{self.data.name}": file_entry(tmp),
+                                                        f"media/{self.media.name}": media})
+            commit(tmp, self.data)
+        finally:
+            tmp.unlink(missing_ok=True)
         return self.data, self.media
 
     def abort(self) -> None:
-        self._h5.close()
+        """Remove what this writer made: its temporary file and any file :meth:`close` had
+        already put under its final name (a shard is both files or neither)."""
+        self._sink.discard = True  # HDF5 closes without writing (or failing) again
+        h5 = getattr(self, "_h5", None)
+        if h5 is not None and h5.id.valid:
+            try:
+                h5.close()
+            except Exception:  # pragma: no cover  (what it reads back may be what was dropped)
+                pass
+        self._sink.close()
         self._tmp.unlink(missing_ok=True)
+        for p in reversed(self._committed):
+            p.unlink(missing_ok=True)
+        self._committed.clear()
+
+
+class _Sink:
+    """The media file as HDF5 writes it (h5py's ``fileobj`` driver): a write that fails (a
+    full disk) is kept, raised by :meth:`check`, and every later write is dropped, so HDF5
+    never sees an error. (Writing to the file itself, HDF5 reported a full disk from the
+    destructors of its objects, a traceback each, and a process that went on crashed.)"""
+
+    def __init__(self, path: Path, shown: Path) -> None:
+        self.shown = shown  # the file it becomes: what an error names
+        self.f = open(path, "w+b")  # noqa: SIM115 (closed by close())
+        self.error: OSError | None = None
+        self.discard = False
+
+    def _guard(self, fn, *args):
+        if self.error is None and not self.discard:
+            try:
+                return fn(*args)
+            except OSError as e:
+                self.error = e
+        return None
+
+    def write(self, b) -> int:
+        n = memoryview(b).nbytes
+        self._guard(self.f.write, b)
+        return n
+
+    def truncate(self, size: int | None = None) -> int | None:
+        self._guard(self.f.truncate, size)
+        return size
+
+    def flush(self) -> None:
+        self._guard(self.f.flush)
+
+    def seek(self, *args) -> int:
+        return self.f.seek(*args)
+
+    def tell(self) -> int:
+        return self.f.tell()
+
+    def readinto(self, b) -> int:
+        return self.f.readinto(b)
+
+    def read(self, n: int = -1) -> bytes:
+        return self.f.read(n)
+
+    def check(self) -> None:
+        """Raise the first write error, as the OSError for this file it is."""
+        e = self.error
+        if e is not None:
+            raise OSError(e.errno or errno.EIO, e.strerror or str(e), str(self.shown))
+
+    def close(self) -> None:
+        if not self.f.closed:
+            self.flush()
+            try:
+                self.f.close()
+            except OSError as e:  # the buffer's last bytes
+                self.error = self.error or e
+        if not self.discard:
+            self.check()
 
 
 def write_shard(root: Path, split: str, i: int, n: int, episodes: list, rows: list[dict],
-                category_labels: tuple[str, ...], dropped: list = ()) -> tuple[Path, Path]:
+                category_labels: tuple[str, ...], dropped: list = (),
+                stamp: Stamp | None = None) -> tuple[Path, Path]:
     """Write a whole shard at once (see :class:`ShardWriter`)."""
-    w = ShardWriter(root, split, i, n, category_labels)
+    w = ShardWriter(root, split, i, n, category_labels, stamp)
     try:
         for ep in episodes:
             w.add(ep)

@@ -1,18 +1,21 @@
 """The rehearsal phase: per room variant, trials per fall zone until enough events are kept.
 
 One Parquet file per variant (``<out>/rehearsal/<variant>.parquet``), written atomically with a
-sidecar of statistics (``.stats.json``); a rerun skips variants whose file exists unless
-``force``. The sidecar holds the rehearsal's fingerprint (:func:`fingerprint`: the code, the
-world's data files, MuJoCo's version, the root seed and the rehearsal config): a variant made
-under another one is an error naming the file, not a variant to keep. The unit of work is a
-variant, so any number of worker processes gives identical files.
+sidecar of statistics (``.stats.json``). The sidecar holds what made the file (its inputs: the
+code, the world's data files it reads, the versions, the root seed and the rehearsal config;
+:func:`fingerprint` is their part common to every variant) and the file's sha256, with a
+checksum of its own. A rerun keeps a variant whose file is what its sidecar records and was made
+from the same inputs (:func:`fallgen.dataset.integrity.rehearsal_state`); one made under other
+inputs is an error naming the file and the difference (``force`` rehearses it again), one whose
+bytes changed (or has no sidecar) is rehearsed again. The unit of work is a variant, so any
+number of worker processes gives identical files. Rehearsing anything makes the dataset
+directory unfinished (its manifest and card are removed: the shards made from the old events
+are made again by the next ``generate``).
 """
 
 from __future__ import annotations
 
-import dataclasses
 import fnmatch
-import functools
 import hashlib
 import io
 import json
@@ -26,6 +29,7 @@ import pyarrow.parquet as pq
 
 from fallgen.atomic import write_bytes, write_text
 from fallgen.config import BuildConfig
+from fallgen.dataset import integrity
 from fallgen.errors import InputError
 from fallgen.physics.drop import REASONS, run_trial
 from fallgen.physics.events import FallEvent, from_table, to_table
@@ -40,8 +44,9 @@ class RoomStats:
     reasons: Counter = field(default_factory=Counter)
     by_zone_kind: dict[str, Counter] = field(default_factory=dict)
     by_category: dict[str, Counter] = field(default_factory=dict)
-    #: what made it (:func:`fingerprint`)
+    #: what made it (:func:`fingerprint`, and every input: :func:`integrity.rehearsal_stamp`)
     fingerprint: str = ""
+    inputs: dict = field(default_factory=dict, compare=False)
     #: the process that rehearsed it, when it was done in this run (not written to the sidecar)
     usage: ProcessUsage | None = field(default=None, compare=False)
 
@@ -54,14 +59,14 @@ class RoomStats:
 
     def as_dict(self) -> dict:
         return {"variant": self.variant, "trials": self.trials, "reasons": dict(self.reasons),
-                "fingerprint": self.fingerprint,
+                "fingerprint": self.fingerprint, "inputs": self.inputs,
                 "by_zone_kind": {k: dict(v) for k, v in sorted(self.by_zone_kind.items())},
                 "by_category": {k: dict(v) for k, v in sorted(self.by_category.items())}}
 
     @staticmethod
     def from_dict(d: dict) -> RoomStats:
         s = RoomStats(d["variant"], d["trials"], Counter(d["reasons"]),
-                      fingerprint=d.get("fingerprint", ""))
+                      fingerprint=d.get("fingerprint", ""), inputs=d.get("inputs", {}))
         s.by_zone_kind = {k: Counter(v) for k, v in d["by_zone_kind"].items()}
         s.by_category = {k: Counter(v) for k, v in d["by_category"].items()}
         return s
@@ -72,7 +77,8 @@ def rehearse_variant(world: World, variant_id: str, cfg: BuildConfig
     """All zones of one variant: trials 0, 1, ... until ``events_per_zone`` are kept."""
     variant = world.variant(variant_id)
     r = cfg.rehearse
-    stats = RoomStats(variant_id, fingerprint=fingerprint(world, cfg))
+    stats = RoomStats(variant_id, fingerprint=fingerprint(world, cfg),
+                      inputs=integrity.rehearsal_stamp(world, cfg, variant_id).inputs)
     events: list[FallEvent] = []
     for zone in variant.zones:
         if not fnmatch.fnmatchcase(zone.id, r.zones):
@@ -90,28 +96,11 @@ def rehearse_variant(world: World, variant_id: str, cfg: BuildConfig
 
 
 def fingerprint(world: World, cfg: BuildConfig) -> str:
-    """What a variant's rehearsal depends on, hashed: the source of the physics and world
-    packages, the world's data files (rooms, materials, object categories), MuJoCo's version,
-    the root seed and the rehearsal config (all of it but ``rooms``, which picks variants)."""
-    import mujoco
-
-    return _fingerprint(str(world.root), mujoco.__version__, cfg.root_seed,
-                        json.dumps({k: v for k, v in dataclasses.asdict(cfg.rehearse).items()
-                                    if k != "rooms"}, sort_keys=True, default=str))
-
-
-@functools.cache
-def _fingerprint(root: str, mujoco_version: str, seed: int, rehearse: str) -> str:
-    h = hashlib.sha256(json.dumps([mujoco_version, seed, rehearse]).encode())
-    pkg = Path(__file__).parent.parent
-    code = sorted([*pkg.glob("physics/*.py"), *pkg.glob("world/**/*.py")])
-    data = sorted(p for d in ("rooms", "materials", "objects")
-                  for p in (Path(root) / d).rglob("*") if p.is_file())
-    for f in code:
-        h.update(str(f.relative_to(pkg)).encode() + f.read_bytes())
-    for f in data:
-        h.update(str(f.relative_to(root)).encode() + f.read_bytes())
-    return h.hexdigest()[:16]
+    """What every variant's rehearsal depends on, hashed: the source of the physics and world
+    packages, the world's material and category files, fallgen's and its libraries' versions,
+    the root seed and the rehearsal config (all of it but ``rooms``, which picks variants). A
+    variant's own room file is in its sidecar's inputs."""
+    return integrity.rehearsal_fingerprint(world, cfg)
 
 
 def rehearsal_dir(cfg: BuildConfig, out: Path | None = None) -> Path:
@@ -119,11 +108,15 @@ def rehearsal_dir(cfg: BuildConfig, out: Path | None = None) -> Path:
 
 
 def write_variant(path: Path, events: list[FallEvent], stats: RoomStats) -> None:
+    """The events, and first their sidecar: the stats, what made them and the file's sha256
+    and size (with a checksum of its own)."""
     buf = io.BytesIO()
     pq.write_table(to_table(events), buf, compression="zstd")
-    write_text(path.with_suffix(".stats.json"), json.dumps(stats.as_dict(), indent=1,
-                                                            sort_keys=True))
-    write_bytes(path, buf.getvalue())  # last: its presence marks the variant done
+    data = buf.getvalue()
+    record = {**stats.as_dict(), "parquet": {"sha256": hashlib.sha256(data).hexdigest(),
+                                             "bytes": len(data)}}
+    write_text(path.with_suffix(".stats.json"), integrity.checked_json(record))
+    write_bytes(path, data)  # last: its presence marks the variant done
 
 
 def read_events(path: str | Path) -> list[FallEvent]:
@@ -153,29 +146,42 @@ def rehearse(world: World, cfg: BuildConfig, variant_ids: Iterable[str], *, out:
              workers: int = 1, force: bool = False,
              progress: Callable[[str, dict | None], None] | None = None,
              executor: str = "local", ray_address: str | None = None,
-             shard_index: int | None = None, num_shards: int | None = None) -> list[RoomStats]:
+             shard_index: int | None = None, num_shards: int | None = None,
+             note: Callable[[str], None] | None = None) -> list[RoomStats]:
     """Rehearse the given variants (or those of ``shard_index`` of ``num_shards``, round robin)
-    into ``out``; returns the stats of every variant (the skipped ones read back from their
-    sidecar). ``workers`` > 1 or ``executor="ray"``: one variant per task."""
+    into ``out`` (a dataset's ``rehearsal/``: the dataset directory is held for writing,
+    :func:`fallgen.dataset.integrity.writer_lock`); returns the stats of every variant (the
+    kept ones read back from their sidecar). ``workers`` > 1 or ``executor="ray"``: one variant
+    per task. ``note`` gets a line for each variant rehearsed again."""
+    part = None if shard_index is None else f"rehearse-{shard_index}-of-{num_shards}"
+    with integrity.writer_lock(out.parent, part):
+        return _rehearse(world, cfg, variant_ids, out, workers, force, progress, executor,
+                         ray_address, shard_index, num_shards, note)
+
+
+def _rehearse(world, cfg, variant_ids, out, workers, force, progress, executor, ray_address,
+              shard_index, num_shards, note) -> list[RoomStats]:
     out.mkdir(parents=True, exist_ok=True)
     todo, done = [], []
     for vid in select_units(list(variant_ids), shard_index, num_shards):
         p = out / f"{vid}.parquet"
-        if p.exists() and p.with_suffix(".stats.json").exists() and not force:
-            side = p.with_suffix(".stats.json")
-            try:
-                kept = RoomStats.from_dict(json.loads(side.read_text()))
-            except (ValueError, KeyError, TypeError) as e:
-                raise InputError(side, "<file>", f"not a rehearsal sidecar ({e})") from None
-            if kept.fingerprint != fingerprint(world, cfg):
-                raise InputError(side, "fingerprint", "rehearsed under another config, world "
-                                 "or fallgen version; build into a new --out, or `fallgen "
-                                 "rehearse --force` to rehearse it again")
-            done.append(kept)
+        side = p.with_suffix(".stats.json")
+        state = integrity.rehearsal_state(p, integrity.rehearsal_stamp(world, cfg, vid))
+        if state.ok and not force:
+            done.append(RoomStats.from_dict(json.loads(side.read_text())))
             if progress:
                 progress(vid, None)
+        elif state.status == "stale" and not force:
+            raise InputError(side, "fingerprint", f"rehearsed under another config, world or "
+                             f"fallgen version ({state.reason}); build into a new --out, or "
+                             "`fallgen rehearse --force` to rehearse it again")
         else:
+            if note and state.status != "missing":
+                note(f"{p.name}: rehearsed again ("
+                     f"{'--force' if state.ok else state.status + ': ' + state.reason})")
             todo.append(vid)
+    if todo:  # the shards made from the old events are made again; no finished build till then
+        integrity.unfinalize(out.parent)
     results: list[RoomStats] = []
     if executor == "local" and min(workers, len(todo)) <= 1:  # in this process
         for vid in todo:

@@ -21,6 +21,7 @@ CPU time so far), so a build can report what each worker used (:func:`per_proces
 
 from __future__ import annotations
 
+import copyreg
 import multiprocessing
 import os
 import platform
@@ -31,8 +32,14 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
+from fallgen.errors import InputError
+
 U = TypeVar("U")
 EXECUTORS = ("local", "ray")
+
+# A worker's InputError (a bad mesh, an HRTF file that is not one) reaches the parent as itself:
+# pickled by its args alone it could not be rebuilt there, and the parent died of a TypeError
+copyreg.pickle(InputError, lambda e: (InputError, (e.file, e.field, e.message)))
 #: environment of every worker: one BLAS thread (bit-identical sums) and headless GL
 WORKER_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
               # Mesa's CPU rasteriser (llvmpipe) rasterises in the calling thread: no thread of

@@ -1,8 +1,14 @@
 """The generation phase: rehearsed fall events -> episodes, written shard by shard.
 
 Shards are the unit of work and of resumption: ``{split}-{i:05d}-of-{n:05d}`` holds the split's
-episodes ``i * per_shard ..`` (in episode-id order). A shard whose Parquet file exists is done
-and is not made again; workers take whole shards, so output does not depend on the worker count.
+episodes ``i * per_shard ..`` (in episode-id order); workers take whole shards, so output does
+not depend on the worker count. A shard is kept only when it is what this build would make and
+is whole (:mod:`fallgen.dataset.integrity`: its fingerprint, of the config, world, code and fall
+events, is the build's, and its bytes are those recorded when it was written); any other is made
+again. The rehearsal files are checked the same way first (one made under other inputs, or
+changed since, is refused), shards of another plan are removed, and the card and the manifest
+are written from the shards once every one of them checks (:func:`finalize_build`). One process
+writes a dataset directory at a time (``--shard-index`` runs share it, one per index).
 
 An episode whose event cannot be used (:class:`~fallgen.pipeline.episode.Skip`: the replay with
 the agent diverged, no free spawn, no reachable pose sees the object) takes the next event of
@@ -31,9 +37,11 @@ from fallgen.audio.hrtf import load_sofa, spherical_head
 from fallgen.audio.mix import Binaural
 from fallgen.audio.room import RirSettings
 from fallgen.config import SPLITS, BuildConfig
+from fallgen.dataset import integrity
+from fallgen.dataset.integrity import Stamp
 from fallgen.dataset.manifest import finalize
 from fallgen.dataset.schema import COLUMNS
-from fallgen.dataset.writer import ShardWriter, row_of, shard_name
+from fallgen.dataset.writer import ShardWriter, row_of, shard_meta, shard_name
 from fallgen.errors import InputError
 from fallgen.physics.events import FallEvent, from_table
 from fallgen.physics.rehearse import rehearsal_dir
@@ -53,6 +61,7 @@ class ShardResult:
     timings_s: Counter = field(default_factory=Counter)
     skipped_shard: bool = False  # already done
     usage: ProcessUsage | None = None  # of the process that made it, when it was done
+    remade: str = ""  # why a shard that was there was made again ("" for a new one)
 
 
 def _rehearsal_files(cfg: BuildConfig, out: Path | None) -> list[Path]:
@@ -71,10 +80,12 @@ class EventRef:
     room_kind: str
 
 
-def event_refs(cfg: BuildConfig, out: Path | None = None) -> list[EventRef]:
-    """Every rehearsed event's id and room kind, sorted by id (two columns read)."""
+def event_refs(cfg: BuildConfig, out: Path | None = None,
+               files: list[Path] | None = None) -> list[EventRef]:
+    """Every rehearsed event's id and room kind (of ``files``, default every rehearsal file),
+    sorted by id (two columns read)."""
     refs = []
-    for f in _rehearsal_files(cfg, out):
+    for f in files if files is not None else _rehearsal_files(cfg, out):
         t = pq.read_table(f, columns=["event_id", "room_kind"])
         refs += [EventRef(i, k) for i, k in zip(t["event_id"].to_pylist(),
                                                   t["room_kind"].to_pylist())]
@@ -125,24 +136,6 @@ class ShardJob:
     def name(self) -> str:
         return shard_name(self.split, self.index, self.count)
 
-    def done(self, out: Path) -> bool:
-        """Made already: its Parquet file (written last, atomically) exists. One made by a
-        fallgen whose rows have other columns is an error (InputError), not a shard to keep:
-        resuming into it would mix two versions' episodes in one dataset."""
-        path = out / "data" / f"{self.name}.parquet"
-        if not path.exists():
-            return False
-        names = pq.read_schema(path).names
-        # a shard whose every episode was dropped is written without rows and with
-        # "episode_id" alone (ShardWriter.close): done, as validate accepts it
-        empty = names == ["episode_id"] and pq.read_metadata(path).num_rows == 0
-        if names != list(COLUMNS) and not empty:
-            other = sorted(set(COLUMNS) ^ set(names))
-            raise InputError(path, "columns", "made by another fallgen version (columns "
-                             f"differ: {', '.join(other[:5]) or 'order'}); build into a new "
-                             "--out or remove that dataset")
-        return True
-
 
 def shard_jobs(planned: list[PlannedEpisode], per_shard: int) -> list[ShardJob]:
     """Each split's episodes in shards of ``per_shard``, one room kind per shard (so the
@@ -173,15 +166,17 @@ def _maker(world: World, cfg: BuildConfig) -> EpisodeMaker:
 
 def make_shard(world: World, maker: EpisodeMaker, cfg: BuildConfig, job: ShardJob,
                events: dict[str, FallEvent], pools: dict[tuple[str, str], list[str]], out: Path,
-               trim: Callable[[], bool] | None = None) -> ShardResult:
-    """Make and write one shard (the caller skips shards that are done: ``job.done(out)``);
+               trim: Callable[[], bool] | None = None, stamp: Stamp | None = None
+               ) -> ShardResult:
+    """Make and write one shard (the caller decides which shards to make: :func:`generate`);
     ``trim`` is called before every episode (a worker passes its :class:`HeapTrimmer`;
-    default: :func:`_trim_heap`)."""
+    default: :func:`_trim_heap`); ``stamp``: what makes it (:attr:`Build.stamps`), recorded
+    with it."""
     trim = trim or _trim_heap
     name = job.name
     res = ShardResult(name, 0)
     rows, dropped = [], []
-    writer = ShardWriter(out, job.split, job.index, job.count, maker.labels)
+    writer = ShardWriter(out, job.split, job.index, job.count, maker.labels, stamp)
     try:
         for p in job.episodes:
             trim()
@@ -291,64 +286,178 @@ def _init(root: str, cfg: BuildConfig, out: str) -> None:
 
 def _make_job(world: World, maker: EpisodeMaker, cfg: BuildConfig, job: ShardJob,
               pools: dict[tuple[str, str], list[str]], out: Path,
-              trim: Callable[[], bool]) -> ShardResult:
+              trim: Callable[[], bool], stamp: Stamp | None = None) -> ShardResult:
     """One shard, loading only the events it can use (all of a full build's events with
     their contacts would take ~700 MB in every worker)."""
     events = {e.event_id: e for e in load_events(cfg, out, job_event_ids(job, pools))}
-    res = make_shard(world, maker, cfg, job, events, pools, out, trim)
+    res = make_shard(world, maker, cfg, job, events, pools, out, trim, stamp)
     res.usage = process_usage()
     return res
 
 
 def _in_process(world: World, cfg: BuildConfig, jobs: list[ShardJob],
-                pools: dict[tuple[str, str], list[str]], out: Path) -> Iterator[ShardResult]:
+                pools: dict[tuple[str, str], list[str]], out: Path,
+                stamps: dict[str, Stamp]) -> Iterator[ShardResult]:
     """The shards made one after another in this process, with one episode maker (its GL
     context closed at the end)."""
     maker, trim = _maker(world, cfg), HeapTrimmer()
     try:
         for job in jobs:
-            yield _make_job(world, maker, cfg, job, pools, out, trim)
+            yield _make_job(world, maker, cfg, job, pools, out, trim, stamps.get(job.name))
     finally:
         maker.close()
 
 
-def _work(args: tuple[ShardJob, dict[tuple[str, str], list[str]]]) -> ShardResult:
-    job, pools = args
+def _work(args: tuple[ShardJob, dict[tuple[str, str], list[str]], Stamp | None]
+          ) -> ShardResult:
+    job, pools, stamp = args
     s = _STATE
-    return _make_job(s["world"], s["maker"], s["cfg"], job, pools, s["out"], s["trim"])
+    return _make_job(s["world"], s["maker"], s["cfg"], job, pools, s["out"], s["trim"], stamp)
 
 
 @dataclass(frozen=True)
 class Build:
-    """What a configuration makes: its events' plan, the shard jobs and the event pools."""
+    """What a configuration makes: its events' plan, the shard jobs, the event pools, what
+    makes each shard (its :class:`~fallgen.dataset.integrity.Stamp`), the rehearsal files'
+    sha256 (by variant) and the inputs every shard shares."""
 
     jobs: list[ShardJob]
     pools: dict[tuple[str, str], list[str]]
+    stamps: dict[str, Stamp] = field(default_factory=dict)
+    rehearsal: dict[str, str] = field(default_factory=dict)
+    common: dict = field(default_factory=dict)
 
 
-def build_plan(cfg: BuildConfig, out: Path | None = None) -> Build:
-    planned = plan(event_refs(cfg, out or cfg.out), cfg.generate.episodes, cfg.root_seed)
-    return Build(shard_jobs(planned, cfg.generate.episodes_per_shard), pools_of(planned))
+def verified_rehearsal(world: World, cfg: BuildConfig, out: Path | None = None
+                       ) -> dict[str, str]:
+    """The rehearsal files of the config's room variants, each checked against what it was
+    made from and the bytes written (:func:`fallgen.dataset.integrity.rehearsal_state`):
+    variant -> sha256. The first file that is missing, made under other inputs, changed since
+    it was written, or of a variant the config does not pick is an InputError naming it
+    (FileNotFoundError when there is no rehearsal at all)."""
+    d = rehearsal_dir(cfg, out)
+    want = [v.id for v in world.variants(cfg.rehearse.rooms)]
+    present = sorted(p.stem for p in d.glob("*.parquet"))
+    if not present:
+        raise FileNotFoundError(f"no rehearsal files in {d}: run `fallgen rehearse` first")
+    extra = [v for v in present if v not in want]
+    if extra:
+        raise InputError(d / f"{extra[0]}.parquet", "rehearse.rooms", "not one of the "
+                         f"config's room variants ({cfg.rehearse.rooms!r}); remove it and its "
+                         ".stats.json, or build into another --out")
+    shas = {}
+    for vid in want:
+        p = d / f"{vid}.parquet"
+        st = integrity.rehearsal_state(p, integrity.rehearsal_stamp(world, cfg, vid))
+        if st.status == "missing":
+            raise InputError(p, "<file>", "not rehearsed yet: run `fallgen rehearse` (or "
+                             "`fallgen build`)")
+        if st.status == "stale":
+            raise InputError(p.with_suffix(".stats.json"), "fingerprint", "rehearsed under "
+                             f"another config, world or fallgen version ({st.reason}); "
+                             "`fallgen rehearse --force` rehearses it again (the shards made "
+                             "from it are then made again), or build into another --out")
+        if st.status == "corrupt":
+            raise InputError(p, "<file>", f"{st.reason}; `fallgen rehearse` (or `fallgen "
+                             "build`) rehearses it again")
+        shas[vid] = integrity.sha256(p)
+    return shas
 
 
-def missing_shards(cfg: BuildConfig, out: Path | None = None, b: Build | None = None
-                   ) -> list[str]:
-    out = out or cfg.out
-    return [j.name for j in (b or build_plan(cfg, out)).jobs if not j.done(out)]
+def build_plan(cfg: BuildConfig, out: Path | None = None, world: World | None = None
+               ) -> Build:
+    """The build's plan from its checked rehearsal files (:func:`verified_rehearsal`), and
+    what makes each shard. ``world``: default the built-in data."""
+    out = Path(out or cfg.out)
+    world = world or load_world()
+    shas = verified_rehearsal(world, cfg, out)
+    d = rehearsal_dir(cfg, out)
+    try:
+        planned = plan(event_refs(cfg, out, [d / f"{v}.parquet" for v in shas]),
+                       cfg.generate.episodes, cfg.root_seed)
+    except ValueError as e:
+        raise InputError(d, "events", f"{e}; rehearse more (rehearse.zones, events_per_zone, "
+                         "max_trials_per_zone) or ask for fewer episodes") from None
+    jobs = shard_jobs(planned, cfg.generate.episodes_per_shard)
+    pools = pools_of(planned)
+    common = integrity.build_inputs(world, cfg)
+    stamps = {}
+    for j in jobs:
+        tried = [[p.episode_id, p.split, p.room_kind, _attempts(p, pools)] for p in j.episodes]
+        variants = {e.split("/", 1)[0] for e in job_event_ids(j, pools)}
+        stamps[j.name] = integrity.shard_stamp(world, common, j.name, tried, variants, shas)
+    return Build(jobs, pools, stamps, shas, common)
 
 
-def finalize_build(cfg: BuildConfig, out: Path | None = None, b: Build | None = None) -> Path:
-    """Write the card and the manifest once every shard of the build exists (after the array
-    jobs of a multi-machine build); raises FileNotFoundError naming the missing shards."""
-    out = out or cfg.out
-    missing = missing_shards(cfg, out, b)
-    if missing:
-        more = f" and {len(missing) - 3} more" if len(missing) > 3 else ""
-        raise FileNotFoundError(f"{len(missing)} shards not made yet: "
-                                f"{', '.join(missing[:3])}{more}")
-    return finalize(out, cfg.file.read_text(), cfg.root_seed,
-                    {"generate": dataclasses.asdict(cfg.generate),
-                     "rehearse": dataclasses.asdict(cfg.rehearse)})
+def shard_states(out: Path, b: Build, jobs: list[ShardJob] | None = None
+                 ) -> dict[str, integrity.State]:
+    """Each shard's state against what the build makes (``ok``: keep it)."""
+    return {j.name: integrity.shard_state(out, j.name, b.stamps.get(j.name))
+            for j in (b.jobs if jobs is None else jobs)}
+
+
+def missing_shards(cfg: BuildConfig, out: Path | None = None, b: Build | None = None,
+                   world: World | None = None) -> list[str]:
+    """The shards of the build that are not there as the build makes them."""
+    out = Path(out or cfg.out)
+    b = b or build_plan(cfg, out, world)
+    return [n for n, st in shard_states(out, b).items() if not st.ok]
+
+
+def _check_content(out: Path, job: ShardJob, stamp: Stamp) -> None:
+    """What a shard's rows say against its plan: columns, episode ids (with the dropped
+    ones), its own name and fingerprint; an InputError naming the file otherwise."""
+    import h5py
+
+    data, media = integrity.shard_files(out, job.name)
+    try:
+        t = pq.read_table(data)
+        meta = shard_meta(t.schema) or {}
+    except Exception as e:  # pyarrow raises several types for a broken file
+        raise InputError(data, "<parquet>", f"unreadable ({type(e).__name__})") from None
+    empty = t.num_rows == 0 and t.column_names == ["episode_id"]
+    if t.column_names != list(COLUMNS) and not empty:
+        raise InputError(data, "columns", "not the columns this fallgen writes")
+    want = (job.split, job.index, job.count, stamp.fingerprint)
+    if (meta.get("split"), meta.get("shard"), meta.get("num_shards"),
+            meta.get("fingerprint")) != want:
+        raise InputError(data, "fallgen", "its metadata names another shard or fingerprint")
+    ids = t["episode_id"].to_pylist() + [d[0] for d in meta.get("dropped", [])]
+    if sorted(ids) != [p.episode_id for p in job.episodes]:
+        raise InputError(data, "episode_id", "not the episodes the plan gives this shard")
+    with h5py.File(media, "r") as f:
+        if f.attrs.get("fingerprint") != stamp.fingerprint:
+            raise InputError(media, "fingerprint", "not the shard's fingerprint")
+
+
+def finalize_build(cfg: BuildConfig, out: Path | None = None, b: Build | None = None,
+                   world: World | None = None,
+                   note: Callable[[str], None] | None = None) -> Path:
+    """Write the card and the manifest from the shards once every shard of the build is there
+    as the build makes it (after the array jobs of a multi-machine build): each is checked
+    (its record, fingerprint and bytes; its columns, episode ids and metadata) before it is
+    listed; shards of another plan are removed. Raises FileNotFoundError naming the shards
+    missing or not as the build makes them."""
+    out = Path(out or cfg.out)
+    with integrity.writer_lock(out):
+        b = b or build_plan(cfg, out, world)
+        integrity.tidy(out, {j.name for j in b.jobs}, note)
+        bad = [(n, st) for n, st in shard_states(out, b).items() if not st.ok]
+        if bad:
+            integrity.unfinalize(out)
+            more = f" and {len(bad) - 3} more" if len(bad) > 3 else ""
+            raise FileNotFoundError(f"{len(bad)} shards missing or not as this build makes "
+                                    "them: " + ", ".join(
+                                        n + ("" if st.status == "missing" else
+                                             f" ({st.status}: {st.reason})")
+                                        for n, st in bad[:3]) + more)
+        for j in b.jobs:
+            _check_content(out, j, b.stamps[j.name])
+        return finalize(out, cfg.file.read_text(), cfg.root_seed,
+                        {"generate": dataclasses.asdict(cfg.generate),
+                         "rehearse": dataclasses.asdict(cfg.rehearse)},
+                        build={"fingerprint": integrity.digest(b.common), "inputs": b.common},
+                        hash_of=integrity.file_entry)
 
 
 def precompute_modes(world: World, cfg: BuildConfig, out: Path | None = None, workers: int = 1,
@@ -383,41 +492,70 @@ def generate(world: World, cfg: BuildConfig, out: Path | None = None, workers: i
              executor: str = "local", ray_address: str | None = None,
              shard_index: int | None = None, num_shards: int | None = None,
              b: Build | None = None,
-             modes_progress: Callable[[str], None] | None = None) -> list[ShardResult]:
-    """Make every shard of the build (or of ``shard_index`` of ``num_shards``) that is not done
-    yet; then, when the whole build exists, (re)write the card and the manifest. Returns the
-    per-shard results. ``workers`` > 1 or ``executor="ray"`` run shards in worker processes.
-    On one machine (local executor, no shard index) the modal models the events need are
-    solved first (:func:`precompute_modes`; ``modes_progress`` gets each one's label).
-    ``b``: the build's plan when the caller has it already (it reads every rehearsal file)."""
-    out = out or cfg.out
-    b = b or build_plan(cfg, out)
-    jobs = select_units(b.jobs, shard_index, num_shards)
-    results: list[ShardResult] = []
-    todo = [j for j in jobs if not j.done(out)]
-    done = [ShardResult(j.name, len(j.episodes), skipped_shard=True) for j in jobs
-            if j.done(out)]
-    if todo and executor == "local" and shard_index is None:
-        # the modal models first, all cores on them: solving them inside the shard workers
-        # as first needed cost each worker ~400 MB more at its peak
-        precompute_modes(world, cfg, out, workers, on_done=modes_progress)
-    if not todo:
-        made = iter(done)
-    elif executor == "local" and min(workers, len(todo)) <= 1:  # in this process
-        made = itertools.chain(done, _in_process(world, cfg, todo, b.pools, out))
-    else:
-        made = itertools.chain(done, parallel_map(_work, [(j, b.pools) for j in todo], _init,
-                                                  (str(world.root), cfg, str(out)),
-                                                  min(workers, len(todo)), executor,
-                                                  ray_address))
-    for r in made:
-        results.append(r)
-        if progress:
-            progress(r)
-    if not missing_shards(cfg, out, b):
-        finalize_build(cfg, out, b)
+             modes_progress: Callable[[str], None] | None = None,
+             force: bool = False, note: Callable[[str], None] | None = None
+             ) -> list[ShardResult]:
+    """Make every shard of the build (or of ``shard_index`` of ``num_shards``) that is not
+    there as this build makes it (all of them with ``force``); then, when the whole build is
+    there, (re)write the card and the manifest from it. Returns the per-shard results.
+    ``workers`` > 1 or ``executor="ray"`` run shards in worker processes. On one machine (local
+    executor, no shard index) the modal models the events need are solved first
+    (:func:`precompute_modes`; ``modes_progress`` gets each one's label). ``b``: the build's
+    plan when the caller has it already (it reads every rehearsal file). ``note`` gets a line
+    for each shard made again and each shard removed (of another plan)."""
+    out = Path(out or cfg.out)
+    part = None if shard_index is None else f"generate-{shard_index}-of-{num_shards}"
+    with integrity.writer_lock(out, part):
+        b = b or build_plan(cfg, out, world)
+        jobs = select_units(b.jobs, shard_index, num_shards)
+        if part is None:
+            integrity.tidy(out, {j.name for j in b.jobs}, note)
+        else:
+            integrity.remove_temporaries(out, [j.name for j in jobs])
+        states = shard_states(out, b, jobs)
+        todo = [j for j in jobs if force or not states[j.name].ok]
+        why = {j.name: ("--force" if states[j.name].ok else
+                        f"{states[j.name].status}: {states[j.name].reason}") for j in todo
+               if states[j.name].status != "missing"}
+        if todo:
+            integrity.unfinalize(out)  # no longer a finished build until every shard is back
+        for name, reason in why.items():
+            if note:
+                note(f"{name}: made again ({reason})")
+            integrity.discard_shard(out, name)
+        making = {j.name for j in todo}
+        done = [ShardResult(j.name, len(j.episodes), skipped_shard=True) for j in jobs
+                if j.name not in making]
+        if todo and executor == "local" and shard_index is None:
+            # the modal models first, all cores on them: solving them inside the shard
+            # workers as first needed cost each worker ~400 MB more at its peak
+            precompute_modes(world, cfg, out, workers, on_done=modes_progress)
+        if not todo:
+            made = iter(done)
+        elif executor == "local" and min(workers, len(todo)) <= 1:  # in this process
+            made = itertools.chain(done, _in_process(world, cfg, todo, b.pools, out, b.stamps))
+        else:
+            made = itertools.chain(done, parallel_map(
+                _work, [(j, b.pools, b.stamps.get(j.name)) for j in todo], _init,
+                (str(world.root), cfg, str(out)), min(workers, len(todo)), executor,
+                ray_address))
+        results: list[ShardResult] = []
+        for r in made:
+            r.remade = why.get(r.name, "")
+            results.append(r)
+            if progress:
+                progress(r)
+        if part is None and not missing_shards(cfg, out, b):
+            finalize_build(cfg, out, b, world, note)
+    if part is not None and not missing_shards(cfg, out, b):
+        try:  # the last array task finalizes, when no other is still writing
+            finalize_build(cfg, out, b, world, note)
+        except InputError as e:
+            if e.field != "lock":
+                raise
     return results
 
 
 __all__ = ["generate", "shard_jobs", "make_shard", "load_events", "event_refs", "job_event_ids",
-           "finalize_build", "missing_shards", "build_plan"]
+           "finalize_build", "missing_shards", "build_plan", "verified_rehearsal",
+           "shard_states"]
