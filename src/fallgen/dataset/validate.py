@@ -1,11 +1,15 @@
 """``fallgen validate DATASET``: everything a user should be able to trust, checked.
 
 Checksums and sizes against the manifest (a flipped byte, a truncated or missing file, an extra
-shard), the shard set (every ``i-of-n`` present), Parquet schemas and row counts per split, the
-HDF5 media (opens, shapes, dtypes, audio length and rate, finite values, one media row per
-episode), episode ids unique and contiguous, no fall event in two of train / validation / test,
-and every episode's fall event present in the rehearsal files. Returns a list of problems, each
-one line naming the file.
+shard), the shard set (every ``i-of-n`` present, one set per split), Parquet schemas and row
+counts per split, the HDF5 media (opens, shapes, dtypes, audio length and rate, finite values,
+one media row per episode), episode ids unique and contiguous, no fall event in two of train /
+validation / test, and every episode's fall event present in the rehearsal files. Then what
+made the files, without trusting the manifest's checksums alone: every shard carries the
+build's fingerprint (the manifest's ``build``), the sha256 of its media file and of the
+rehearsal files it replays, and its media file its fingerprint; every rehearsal file's sidecar
+records its sha256. Returns a list of problems, each one line naming the file; a path that is
+not a directory is an InputError.
 """
 
 from __future__ import annotations
@@ -20,7 +24,9 @@ import numpy as np
 import pyarrow.parquet as pq
 
 from fallgen.config import SPLITS
+from fallgen.dataset.integrity import read_json
 from fallgen.dataset.manifest import MANIFEST, listed_files, sha256
+from fallgen.errors import InputError
 from fallgen.dataset.schema import REQUIRED
 from fallgen.dataset.writer import shard_meta
 
@@ -29,6 +35,9 @@ SHARD = re.compile(r"^(?P<split>[a-z_]+)-(?P<i>\d{5})-of-(?P<n>\d{5})\.(parquet|
 
 def validate(root: str | Path) -> list[str]:
     root = Path(root)
+    if not root.is_dir():
+        raise InputError(root, "<dir>", "no such directory" if not root.exists() else
+                         "a file, not a dataset directory")
     problems: list[str] = []
     man_path = root / MANIFEST
     try:
@@ -46,11 +55,15 @@ def validate(root: str | Path) -> list[str]:
         problems.append(f"{root / rel}: listed in the manifest but missing")
     for rel in sorted(present - set(files)):
         problems.append(f"{root / rel}: not in the manifest")
-    for rel in sorted(set(files) & present):
+    hashes: dict[str, str] = {}
+    for rel in sorted(present):
         p = root / rel
+        hashes[rel] = sha256(p)
+        if rel not in files:
+            continue
         if p.stat().st_size != files[rel]["bytes"]:
             problems.append(f"{p}: {p.stat().st_size} bytes, manifest says {files[rel]['bytes']}")
-        elif sha256(p) != files[rel]["sha256"]:
+        elif hashes[rel] != files[rel]["sha256"]:
             problems.append(f"{p}: checksum differs from the manifest")
 
     # shard sets
@@ -66,6 +79,15 @@ def validate(root: str | Path) -> list[str]:
         n = int(key.split("/")[1])
         for i in sorted(set(range(n)) - got):
             problems.append(f"{root / d}/{key.split('/')[0]}-{i:05d}-of-{n:05d}: shard missing")
+    sets: dict[tuple[str, str], list[str]] = {}
+    for d, key in shards:
+        sets.setdefault((d, key.split("/")[0]), []).append(key.split("/")[1])
+    for (d, split), ns in sorted(sets.items()):
+        if len(ns) > 1:
+            problems.append(f"{root / d}: {len(ns)} shard sets of {split} (of-"
+                            f"{', of-'.join(sorted(ns))}): one build has one")
+    problems += _check_rehearsal(root, hashes)
+    build = (manifest.get("build") or {}).get("fingerprint")
 
     # rows, media, events
     events = set()
@@ -86,9 +108,12 @@ def validate(root: str | Path) -> list[str]:
             problems.append(f"{p}: missing columns {', '.join(missing)}")
             continue
         try:
-            dropped += [d[0] for d in shard_meta(t.schema)["dropped"]]
+            meta = shard_meta(t.schema)
+            dropped += [d[0] for d in meta["dropped"]]
         except (KeyError, ValueError, TypeError, IndexError):
             problems.append(f"{p}: no fallgen metadata (split, shard, dropped episodes)")
+        else:
+            problems += _check_made(root, p, meta, build, hashes)
         rows = t.to_pylist()
         if len({r["room_kind"] for r in rows}) > 1:
             problems.append(f"{p}: mixes room kinds (one per shard)")
@@ -124,6 +149,51 @@ def validate(root: str | Path) -> list[str]:
                 problems.append(f"{root / 'data'}: {len(both)} fall events in both {main[a]} "
                                 f"and {main[b]} (e.g. {sorted(both)[0]})")
     return problems
+
+
+def _check_rehearsal(root: Path, hashes: dict[str, str]) -> list[str]:
+    """Each rehearsal file against its sidecar (its own checksum, the file's sha256)."""
+    out = []
+    for rel in sorted(h for h in hashes if h.startswith("rehearsal/") and h.endswith(".parquet")):
+        side = (root / rel).with_suffix(".stats.json")
+        rec = read_json(side)
+        if rec is None:
+            out.append(f"{side}: missing, unreadable or edited (its checksum differs)")
+        elif (rec.get("parquet") or {}).get("sha256") != hashes[rel]:
+            out.append(f"{root / rel}: not the file its sidecar records (changed since it was "
+                       "written)")
+    return out
+
+
+def _check_made(root: Path, p: Path, meta: dict, build: str | None,
+                hashes: dict[str, str]) -> list[str]:
+    """What made a shard, from its own metadata: the build's fingerprint, its media file's
+    sha256 and fingerprint, the rehearsal files it replays, its name."""
+    out = []
+    m = SHARD.match(p.name)
+    if m and (meta.get("split"), meta.get("shard"), meta.get("num_shards")) != \
+            (m["split"], int(m["i"]), int(m["n"])):
+        out.append(f"{p}: its metadata names another shard")
+    if "fingerprint" not in meta:
+        return out + [f"{p}: no fingerprint (not made by this fallgen's build)"]
+    if build is None or meta.get("build") != build:
+        out.append(f"{p}: made by another build than the manifest's (fingerprint "
+                   f"{meta.get('build')}, manifest {build})")
+    media = f"media/{p.stem}.h5"
+    if media in hashes and meta.get("media_sha256") != hashes[media]:
+        out.append(f"{root / media}: not the media file its shard was written with")
+    for variant, sha in sorted((meta.get("events") or {}).items()):
+        rel = f"rehearsal/{variant}.parquet"
+        if rel in hashes and hashes[rel][:len(sha)] != sha:
+            out.append(f"{p}: made from other fall events than {root / rel} holds now")
+    if media in hashes:
+        try:
+            with h5py.File(root / media, "r") as f:
+                if f.attrs.get("fingerprint") != meta["fingerprint"]:
+                    out.append(f"{root / media}: its fingerprint is not its shard's")
+        except OSError:
+            pass  # reported as unreadable below
+    return out
 
 
 def _check_media(path: Path, rows: list[dict], audio_s: float) -> list[str]:
