@@ -134,7 +134,7 @@ def _run_rehearsal(cfg, world, rooms: str | None, workers: int, out: Path | None
             bar.update(task, advance=1, description=f"{vid}: {note}")
 
         stats = run(world, cfg, [v.id for v in vs], out=dest, workers=workers, force=force,
-                    progress=tick, **parallel)
+                    progress=tick, note=_note, **parallel)
     totals = summarize(stats)
     for title, table in (("zone kind", totals["zone_kind"]), ("category", totals["category"])):
         t = Table(title=f"rehearsal by {title}")
@@ -151,6 +151,10 @@ def _run_rehearsal(cfg, world, rooms: str | None, workers: int, out: Path | None
     _print_usage("rehearsal", [s.usage for s in stats])
 
 
+def _note(line: str) -> None:
+    console.print(line, markup=False, highlight=False, soft_wrap=True)
+
+
 def _print_usage(phase: str, usages: list) -> None:
     """One line: the peak resident memory and CPU time of each process that did the phase's
     work in this run (a worker, or this process when it worked alone)."""
@@ -164,7 +168,7 @@ def _print_usage(phase: str, usages: list) -> None:
 
 
 def _run_generation(cfg, config: Path, world, workers: int, out: Path | None,
-                    parallel: dict) -> None:
+                    parallel: dict, force: bool = False) -> None:
     from collections import Counter
 
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, \
@@ -174,7 +178,7 @@ def _run_generation(cfg, config: Path, world, workers: int, out: Path | None,
     from fallgen.pipeline.generate import build_plan, generate as run, missing_shards
 
     try:
-        b = build_plan(cfg, out)
+        b = build_plan(cfg, out, world)
     except FileNotFoundError as e:
         raise InputError(config, "build.out", str(e)) from None
     n_shards = len(select_units(b.jobs, parallel["shard_index"], parallel["num_shards"]))
@@ -197,7 +201,7 @@ def _run_generation(cfg, config: Path, world, workers: int, out: Path | None,
 
         run(world, cfg, out, workers=workers, progress=tick, b=b,
             modes_progress=lambda label: bar.update(task, description=f"modal model {label}"),
-            **parallel)
+            force=force, note=_note, **parallel)
     dest = out or cfg.out
     size = sum(p.stat().st_size for d in ("data", "media") for p in (dest / d).glob("*")
                if p.is_file())
@@ -214,6 +218,13 @@ def _run_generation(cfg, config: Path, world, workers: int, out: Path | None,
         console.print("time by stage: " + ", ".join(
             f"{k} {v:.1f} s ({v / total:.0%})" for k, v in timings.most_common()))
     _print_usage("generation", usages)
+
+
+def _preflight(cfg, world, out: Path | None, build: bool = True) -> None:
+    """Every check of the config, the world and the output directory, before any work."""
+    from fallgen.dataset.integrity import preflight
+
+    preflight(cfg, world, out, build)
 
 
 def _config(config: Path, frames: str | None = None):
@@ -246,8 +257,9 @@ def rehearse(
     """Rehearsal phase: drop objects into every fall zone, keep those that settle inside it
     (one Parquet file per room variant; variants already done are kept)."""
     parallel = _parallel(executor, shard_index, num_shards, ray_address)
-    _run_rehearsal(_config(config), _world(data_dir), rooms, _workers(workers), out, force,
-                   parallel)
+    cfg, world = _config(config), _world(data_dir)
+    _preflight(cfg, world, out, build=False)
+    _run_rehearsal(cfg, world, rooms, _workers(workers), out, force, parallel)
 
 
 @app.command()
@@ -263,13 +275,16 @@ def generate(
     shard_index: ShardIndex = None,
     num_shards: NumShards = None,
     data_dir: DataDir = None,
+    force: Annotated[bool, typer.Option(help="Make every shard (of this run) again.")] = False,
 ) -> None:
     """Generation phase: rehearsed falls -> episodes (spawn, binaural audio, first view, maps,
-    expert trajectory), written as Parquet + HDF5 shards; finished shards are kept (resume).
-    The card and manifest are written when the last shard of the build exists."""
+    expert trajectory), written as Parquet + HDF5 shards; shards that are what this build makes
+    are kept (resume), any other is made again. The card and manifest are written when the
+    last shard of the build exists."""
     parallel = _parallel(executor, shard_index, num_shards, ray_address)
-    _run_generation(_config(config, frames), config, _world(data_dir), _workers(workers), out,
-                    parallel)
+    cfg, world = _config(config, frames), _world(data_dir)
+    _preflight(cfg, world, out)
+    _run_generation(cfg, config, world, _workers(workers), out, parallel, force)
 
 
 @app.command()
@@ -283,24 +298,29 @@ def build(
 ) -> None:
     """Both phases on this machine (or a Ray cluster): rehearse every room variant of the
     config, then generate every shard, card and manifest. Reruns resume."""
+    from fallgen.dataset.integrity import writer_lock
+
     parallel = _parallel(executor, None, None, ray_address)
     cfg, world = _config(config), _world(data_dir)
-    _run_rehearsal(cfg, world, None, _workers(workers), out, False, parallel)
-    _run_generation(cfg, config, world, _workers(workers), out, parallel)
+    _preflight(cfg, world, out)
+    with writer_lock(out or cfg.out):
+        _run_rehearsal(cfg, world, None, _workers(workers), out, False, parallel)
+        _run_generation(cfg, config, world, _workers(workers), out, parallel)
 
 
 @app.command()
 def finalize(
     config: Config,
     out: Out = None,
+    data_dir: DataDir = None,
 ) -> None:
-    """Write the dataset card and manifest once every shard exists (after a multi-machine build
-    with --shard-index); exit 2 naming the missing shards otherwise."""
+    """Write the dataset card and manifest once every shard exists and checks (after a
+    multi-machine build with --shard-index); exit 2 naming the missing shards otherwise."""
     from fallgen.pipeline.generate import finalize_build
 
     cfg = _config(config)
     try:
-        path = finalize_build(cfg, out)
+        path = finalize_build(cfg, out, world=_world(data_dir), note=_note)
     except FileNotFoundError as e:
         raise InputError(out or cfg.out, "data/", str(e)) from None
     console.print(f"{path.parent / 'README.md'}, {path}")
@@ -792,6 +812,14 @@ def main(argv: list[str] | None = None) -> None:
         app(args=argv, prog_name="fallgen")
     except InputError as e:
         print(f"error: {e}", file=sys.stderr)
+        sys.exit(2)
+    except Exception as e:  # a full disk, an unwritable directory, a corrupt file: one line
+        from fallgen.dataset.integrity import one_line
+
+        line = one_line(e)
+        if line is None:
+            raise
+        print(f"error: {line}", file=sys.stderr)
         sys.exit(2)
 
 
