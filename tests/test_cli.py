@@ -247,3 +247,36 @@ def test_sounds_writes_wav_and_png(capsys, tmp_path, world, monkeypatch):
     code, out, err = run(capsys, "sounds", str(bad), "-o", str(tmp_path / "o2"))
     assert code == 2 and err.strip().count("\n") == 0 and "bad.parquet" in err
     assert not (tmp_path / "o2").exists()
+
+
+# --- checks before any work ----------------------------------------------------------------------
+
+@pytest.mark.parametrize(("old", "new", "message"), [
+    ('rooms = "kitchen_galley-l1-m1,study_office-l1-m1"',
+     'rooms = "kitchen_galley-l1-m1,study_office-l1-m1"\nzones = "z9*"', "matches no zone"),
+    ('rooms = "kitchen_galley-l1-m1,study_office-l1-m1"',
+     'rooms = "kitchen_galley-l1-m1,study_office-l1-m1"\nzones = "z00"',
+     "leaves at most 1 kitchen fall events, fewer than the 3 splits"),
+])
+def test_build_checks_the_zones_before_any_work(capsys, tmp_path, old, new, message):
+    """Zones that leave no event, or fewer than the splits need, are refused before the
+    rehearsal (which used to run first and then fail with a traceback)."""
+    repo = Path(__file__).resolve().parents[1]
+    cfg = tmp_path / "z.toml"
+    cfg.write_text((repo / "configs/smoke.toml").read_text().replace(old, new))
+    out = tmp_path / "out"
+    code, _, err = run(capsys, "build", "-c", str(cfg), "--out", str(out))
+    assert code == 2 and err.count("\n") == 1, err
+    assert "z.toml: rehearse.zones" in err and message in err
+    assert not out.exists()
+
+
+def test_build_refuses_a_source_tree(capsys, tmp_path):
+    """`--out .` in a checkout (or `out = ""`) once wrote the card over its README.md."""
+    repo = Path(__file__).resolve().parents[1]
+    readme = (repo / "README.md").read_bytes()
+    code, _, err = run(capsys, "build", "-c", str(repo / "configs/smoke.toml"), "--out",
+                       str(repo))
+    assert code == 2 and err.count("\n") == 1 and "pyproject.toml" in err, err
+    assert (repo / "README.md").read_bytes() == readme
+    assert not (repo / ".fallgen").exists()
