@@ -521,7 +521,9 @@ def _acoustics_table(r) -> Table:
             ("Eyring, s", r.eyring_s), ("Sabine, s", r.sabine_s),
             ("Fitzroy, s", r.fitzroy_s), ("bare room (Eyring), s", r.bare_eyring_s)]
     if r.raytrace_t30_s is not None:
-        rows.insert(2, ("T30 ray tracer, s", r.raytrace_t30_s))
+        rows[2:2] = [("T30 ray tracer, s", r.raytrace_t30_s),
+                     ("T20 ray tracer, s", r.raytrace_t20_s),
+                     ("ray tracer T30 / model", r.rays_over_model)]
     rows += [("absorption area, m^2", r.absorption_area_m2),
              ("  of it furniture, m^2", r.furniture_absorption_m2)]
     for name, vals in rows:
@@ -533,15 +535,17 @@ def _acoustics_summary(reports, raytrace: bool) -> Table:
     """Many variants' acoustics, a row each."""
     t = Table(title=f"{len(reports)} variants: RT60 of the furnished room (model) and T30 "
               "of a rendered response, s")
+    rays = ("rays T30 500 Hz-1 kHz", "rays T20", "rays / model") if raytrace else ()
     for col in ("variant", "V m^3", "mean free path m", "125 Hz", "500 Hz", "1 kHz",
-                "4 kHz", "T30 500 Hz-1 kHz") + (("rays 500 Hz-1 kHz",) if raytrace else ()):
+                "4 kHz", "T30 500 Hz-1 kHz") + rays:
         t.add_column(col, justify="left" if col == "variant" else "right")
     for r in reports:
         row = [r.variant, f"{r.volume_m3:.1f}", f"{r.mean_free_path_m:.2f}",
                *[f"{r.rt60_s[b]:.2f}" for b in (0, 2, 3, 5)],
                f"{r.t30_s[2:4].mean():.2f}"]
         if raytrace:
-            row.append(f"{r.raytrace_t30_s[2:4].mean():.2f}")
+            row += [f"{r.raytrace_t30_s[2:4].mean():.2f}", f"{r.raytrace_t20_s[2:4].mean():.2f}",
+                    f"{r.rays_over_model[2:4].mean():.2f}"]
         t.add_row(*row)
     return t
 
@@ -554,23 +558,27 @@ def rooms_acoustics(
     out: Annotated[Optional[Path], typer.Option(
         "-o", "--out", help="PNG of the decay curves (a directory for a glob).")] = None,
     raytrace: Annotated[bool, typer.Option(
-        "--raytrace", help="Also trace rays through the furnished room (~10-60 s a variant).")
-    ] = False,
+        "--raytrace", help="Also trace rays through the furnished room, the reference (one "
+        "variant: every band, ~1-4 min; several: 500 Hz and 1 kHz, ~5-70 s each) and judge "
+        "the RT60 goal on them.")] = False,
     data_dir: DataDir = None,
 ) -> None:
     """A variant's furnished acoustics: RT60 per octave band (the renderer's model beside
     Eyring, Sabine, Fitzroy and the bare room) and T30 measured on a rendered response, the
-    mean free path, the absorption; a PNG of the decay curves."""
+    mean free path, the absorption; a PNG of the decay curves. With --raytrace the ray
+    tracer's T30 and T20 beside them, their ratio to the model, and the RT60 goal's verdict
+    on the rays."""
     import json
 
-    from fallgen.audio.acoustics import decay_png, room_report
+    from fallgen.audio.acoustics import MID_BANDS, decay_png, rays_goal_line, room_report
 
     world = _world(data_dir)
     vs = _variants(world, room)
     if out is not None and len(vs) > 1 and out.suffix:
         raise InputError("<command line>", "--out", f"{room!r} matches {len(vs)} variants: "
                          "give a directory, not a file")
-    reports = [room_report(v, world.materials, raytrace=raytrace) for v in vs]
+    reports = [room_report(v, world.materials, raytrace=raytrace,
+                           bands=None if len(vs) == 1 else MID_BANDS) for v in vs]
     for r in reports:
         if out is not None:
             decay_png(out if len(vs) == 1 and out.suffix else out / f"{r.variant}.png", r)
@@ -580,6 +588,8 @@ def rooms_acoustics(
         console.print(_acoustics_summary(reports, raytrace))
     if len(reports) == 1 and not as_json:
         console.print(_acoustics_table(reports[0]))
+    if raytrace and not as_json:
+        console.print(rays_goal_line(reports))
     if out is not None and not as_json:
         console.print(f"wrote {len(reports)} PNG(s) under {out}")
 

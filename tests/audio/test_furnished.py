@@ -44,9 +44,9 @@ def test_uneven_absorption_needs_arau_puchades():
     wa[4] = 0.6
     model = FurnishedAcoustics(size, wa, Furnishing.empty(), NO_AIR)
     specular = trace_decay(size, wa, np.full(6, 0.1), Furnishing.empty(), NO_AIR,
-                           np.random.default_rng(0), n_rays=800, t_max_s=2.5).t30()[0]
+                           np.random.default_rng(0), n_rays=20000, t_max_s=3.0).t30()[0]
     diffuse = trace_decay(size, wa, np.ones(6), Furnishing.empty(), NO_AIR,
-                          np.random.default_rng(0), n_rays=800, t_max_s=1.5).t30()[0]
+                          np.random.default_rng(0), n_rays=4000, t_max_s=1.5).t30()[0]
     assert specular == pytest.approx(model.arau_rt60()[0], rel=0.2)
     assert specular > 1.3 * model.rt60()[0]
     assert diffuse == pytest.approx(model.rt60()[0], rel=0.1)
@@ -147,9 +147,11 @@ def test_furniture_in_a_ray_traced_room():
 
 def test_rendered_response_decays_at_the_furnished_rt60(world):
     """The response the episodes are rendered with (image sources, then the late reverb)
-    decays in every octave band at the furnished room's RT60 (T30 within 15 %), shorter than
-    the bare room's; its reflections lose the furniture's share (its direct sound only what
-    parts in its way take: tests/audio/test_occlusion.py)."""
+    decays in every octave band at the model's RT60 (T30 within 15 %), shorter than the bare
+    room's; its reflections lose the furniture's share (its direct sound only what parts in
+    its way take: tests/audio/test_occlusion.py). This checks the renderer against its
+    model, not the model against the room: the late reverb is made to decay at the model's
+    RT60 (the room's reference is the ray tracer: test_rays_stay_within_the_stated_deviation)."""
     from fallgen.audio.acoustics import schroeder_bands
 
     v = world.variant("kitchen_galley-l1-m1")
@@ -173,9 +175,11 @@ def test_rendered_response_decays_at_the_furnished_rt60(world):
 def test_every_variant_is_furnished(world):
     """Over the 64 variants: furniture always shortens the mid-frequency reverberation, the
     four layouts of a room never all share one RT60 (their furniture differs), the mean
-    free path is that of a furnished room of a home (1-3 m), and the mid-frequency RT60
-    (500 Hz-1 kHz) lies in the range furnished dwellings measure, 0.3-0.9 s (issue 28's
-    goal; materials/README.md cites the surveys)."""
+    free path is that of a furnished room of a home (1-3 m), and the model's mid-frequency
+    RT60 (500 Hz-1 kHz), the one the renderer uses, lies in the range furnished dwellings
+    measure, 0.3-0.9 s (audio.acoustics.RT60_GOAL_S cites the surveys). The goal itself is
+    judged on the ray tracer (`fallgen rooms acoustics '*' --raytrace`), which rings longer:
+    test_rays_stay_within_the_stated_deviation."""
     mids: dict[str, list[float]] = {}
     for v in world.variants():
         room = RoomAcoustics.furnished(v, world.materials)
@@ -204,21 +208,29 @@ def test_ray_tracer_is_reproducible():
 
 
 def test_report_with_rays(world, tmp_path):
-    """`fallgen rooms acoustics --raytrace`'s report: the rays' T30 beside the model's RT60
-    (same order of magnitude, longer where walls reflect specularly), their decay drawn in the
-    PNG, and the same numbers twice (the rays' generator is seeded by the variant)."""
+    """`fallgen rooms acoustics --raytrace`'s report: the rays' T30 and T20 beside the model's
+    RT60 with their ratio (same order of magnitude, longer where walls reflect specularly),
+    their decay drawn in the PNG, the same numbers twice (the rays' generator is seeded by
+    the variant), and bands not asked for left untraced."""
     from fallgen.audio.acoustics import decay_png, room_report
 
     v = world.variant("study_office-l1-m1")
-    r = room_report(v, world.materials, raytrace=True, length_s=1.0, n_rays=300)
+    r = room_report(v, world.materials, raytrace=True, length_s=2.0, n_rays=2000)
     assert r.raytrace_t30_s is not None and r.raytrace_db.shape[1] == 7
     mid = slice(2, 4)
     assert np.all(r.raytrace_t30_s[mid] > 0.8 * r.rt60_s[mid])
     assert np.all(r.raytrace_t30_s[mid] < 2.5 * r.rt60_s[mid])
-    again = room_report(v, world.materials, raytrace=True, length_s=1.0, n_rays=300)
+    np.testing.assert_allclose(r.rays_over_model, r.raytrace_t30_s / r.rt60_s)
+    assert r.as_dict()["rays_over_model"][2] == pytest.approx(r.rays_over_model[2], abs=1e-4)
+    again = room_report(v, world.materials, raytrace=True, length_s=2.0, n_rays=2000)
     np.testing.assert_array_equal(r.raytrace_t30_s, again.raytrace_t30_s)
     png = decay_png(tmp_path / "d.png", r)
     assert png.read_bytes()[:4] == b"\x89PNG"
+    some = room_report(v, world.materials, raytrace=True, length_s=1.0, n_rays=300,
+                       bands=[3])
+    assert np.isfinite(some.raytrace_t30_s[3]) and np.isnan(some.raytrace_t30_s[[0, 6]]).all()
+    assert some.as_dict()["raytrace_t30_s"][0] is None
+    decay_png(tmp_path / "some.png", some)  # untraced bands are not drawn
 
 
 def test_upholstery_absorbs_per_acoustical_area(world):

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from fallgen.audio.furnished import Furnishing
 from fallgen.audio.reflections import furniture_images
@@ -27,8 +28,10 @@ def _table(w=2.0, d=1.0):
 def test_a_table_top_is_a_mirror_above_its_fresnel_limit():
     """A source 0.5 m above the top, the listener 0.5 m above it 1 m along: the image is the
     source mirrored in the top's plane, heard at its distance; the high bands keep
-    sqrt(1 - alpha); below Rindel's f_g (~220 Hz along the top's 1 m side here) the
-    reflection falls by 6 dB per octave; a listener under the top hears no reflection off it."""
+    sqrt(1 - alpha); below Rindel's f_g (243 Hz along the top's 1 m side here, 61 Hz along
+    its 2 m side) the reflection keeps f / f_g of its energy per side, 3 dB per octave
+    (Rindel, Applied Acoustics 19, 1986, as Odeon and Arup's Strutt apply it: Delta L =
+    10 lg(K_a K_b)); a listener under the top hears no reflection off it."""
     f = _table()
     s, lis = np.array([2.5, 2.5, 1.25]), np.array([3.5, 2.5, 1.25])
     pos, g = furniture_images(s, lis, f, SIZE, BANDS)
@@ -38,9 +41,10 @@ def test_a_table_top_is_a_mirror_above_its_fresnel_limit():
     d1 = d2 = math.hypot(0.5, 0.5)
     cos_t = 0.5 / d2
     fg = [343.0 * d1 / (2 * (w * cos_t) ** 2) for w in (2.0, 1.0)]  # a* = d1 (d1 = d2)
-    want = math.sqrt(1 - ALPHA) * np.minimum(1, BANDS / fg[0]) * np.minimum(1, BANDS / fg[1])
-    np.testing.assert_allclose(g[0], want, rtol=1e-9)
-    assert 20 * math.log10(g[0, 0] / g[0, -1]) < -5  # a 1 m table barely reflects 125 Hz
+    k_a, k_b = np.minimum(1, BANDS / fg[0]), np.minimum(1, BANDS / fg[1])
+    np.testing.assert_allclose(g[0] ** 2, (1 - ALPHA) * k_a * k_b, rtol=1e-9)
+    # 125 Hz: 10 lg(125 / 243) = -2.9 dB (an amplitude law f / f_g would give -5.8)
+    assert 20 * math.log10(g[0, 0] / g[0, -1]) == pytest.approx(-2.89, abs=0.02)
     below = np.array([3.5, 2.5, 0.4])
     assert len(furniture_images(s, below, f, SIZE, BANDS)[0]) == 0
     # the reflection point off the top's edge: no mirror there

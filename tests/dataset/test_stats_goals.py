@@ -7,7 +7,7 @@ from fallgen.dataset.stats import AUDIO_MATERIALS, GOALS, goals
 
 
 def _rows(n=200, ratio=1e-3, peak=80.0, kinds=("floor", "shelf"), materials=AUDIO_MATERIALS,
-          rt60=0.5):
+          rt60=0.4):
     return [{"audio_energy_ratio": ratio, "audio_peak_db_spl": peak + (i % 7),
              "fall_height_m": 0.3 + 0.01 * (i % 50),
              "zone_kind": kinds[i % len(kinds)], "audio_material": f"m{i % materials}",

@@ -6,10 +6,12 @@ plane is heard where the source and the listener are both in front of it and the
 image to the listener meets the face inside its rectangle. The reflection keeps
 sqrt(1 - alpha_b) of the amplitude per octave band (the part's material), and a finite face
 reflects low frequencies less: below f_g = c a* / (2 (w cos theta)^2) along each of its two
-sides w (a* = 2 d1 d2 / (d1 + d2), d1 and d2 the legs, theta the angle of incidence) the
-reflection falls by 6 dB per octave (Rindel, "Attenuation of sound reflections due to
-diffraction", Nordic Acoustical Meeting 1986; Rindel, Applied Acoustics 1986). Its two legs
-bend around other parts in the way (:mod:`fallgen.audio.occlusion`).
+sides w (a* = 2 d1 d2 / (d1 + d2), d1 and d2 the legs, theta the angle of incidence) it keeps
+K = f / f_g of the energy, 3 dB per octave per side shorter than the first Fresnel zone, 6 dB
+per octave below both f_g (:func:`specular_share`; Rindel, "Attenuation of sound reflections
+due to diffraction", Nordic Acoustical Meeting 1986; Rindel, Applied Acoustics 19, 1986; as
+Odeon and Arup's Strutt apply it, Delta L = 10 lg(K_a K_b)). Its two legs bend around other
+parts in the way (:mod:`fallgen.audio.occlusion`).
 
 A source resting on a face (an object on a table) is its own image there: the face doubles its
 pressure, as the floor doubles a source on the floor.
@@ -31,6 +33,18 @@ MIN_FACE_M2 = 0.2
 MIN_OPEN_SHARE = 0.5
 #: A source up to this far behind a face's plane counts as on it (contacts lie on surfaces).
 ON_FACE_M = 0.02
+
+
+def specular_share(freq_hz, side_m, cos_theta, a_star_m, c: float = 343.0) -> np.ndarray:
+    """The share of a reflection's energy a face of side ``side_m`` keeps in the specular
+    direction at ``freq_hz`` (broadcast): K = min(1, f / f_g), f_g = c a* / (2 (w cos
+    theta)^2) (module docstring): 1 at a* = 0 (a source on the face), 0 at grazing
+    incidence."""
+    w = np.asarray(side_m, float) * np.asarray(cos_theta, float)
+    num = 2 * np.asarray(freq_hz, float) * w * w  # f / f_g = num / (c a*)
+    den = c * np.asarray(a_star_m, float)
+    num, den = np.broadcast_arrays(num, den)
+    return np.minimum(1.0, np.divide(num, den, out=np.ones(num.shape), where=den > 0))
 
 
 @functools.lru_cache(maxsize=16)
@@ -78,11 +92,10 @@ def furniture_images(source, listener, f: Furnishing, size_m, bands_hz,
         total = d1 + d2
         cos_t = dl / max(d2, 1e-9)
         a_star = 2 * d1 * d2 / max(total, 1e-9)
-        g = np.sqrt(1.0 - f.absorption[k])
-        for w in (2 * hu, 2 * hv):  # finite size: -6 dB per octave below f_g
-            f_g = c * a_star / (2 * (w * cos_t) ** 2)
-            if f_g > 0:  # (0: a source on the face, all of it reflected)
-                g = g * np.minimum(1.0, bands / f_g)
+        # finite size: K = f / f_g of the energy below f_g, per side (a source on the face,
+        # a* = 0, keeps all of it)
+        keep = specular_share(bands[:, None], [2 * hu, 2 * hv], cos_t, a_star, c).prod(1)
+        g = np.sqrt((1.0 - f.absorption[k]) * keep)
         pos.append(image)
         gains.append(g)
         legs += [(s, q), (q, lis)]
