@@ -13,7 +13,7 @@ import pytest
 import shapely
 
 from fallgen.nav.agent import AgentSpec, Pose
-from fallgen.pipeline.settled import target_corners
+from fallgen.pipeline.settled import target_points
 from fallgen.vision.camera import EgoCamera
 from fallgen.vision.cover import convex_hull, covered
 from fallgen.vision.sight import Occluders
@@ -125,9 +125,9 @@ def test_no_view_from_a_hidden_eye_shows_the_object(world, variant_id):
         scene = build_scene(v, world.materials, objs, settings=LOOK)
         d = scene.data()
         mujoco.mj_forward(scene.model, d)
-        corners = target_corners(scene, d)
-        occ = Occluders(scene.model, d, scene.object_body["target"], corners)
-        wrong = Occluders(scene.model, d, scene.object_body["target"], corners, behind_m=-10.0)
+        points = target_points(scene, d)
+        occ = Occluders(scene.model, d, scene.object_body["target"], points)
+        wrong = Occluders(scene.model, d, scene.object_body["target"], points, behind_m=-10.0)
         camera = EgoCamera(scene, {"target": "cup", "d0": "book"}, spec)
         try:
             for _ in range(12):

@@ -40,6 +40,8 @@ FOV_DEG = 90.0
 #: ``may_see(pose, tilts)``: for each tilt (degrees) of the pose's position and heading,
 #: whether the object can be visible there at all (False only where it cannot).
 MaySee = Callable[[Pose, list[int]], "list[bool] | np.ndarray"]
+#: ``unseen(pose)``: True only where no heading or tilt at the pose's position can see it.
+Unseen = Callable[[Pose], bool]
 #: Renderer verdicts one search may ask for before it gives up (:class:`SearchLimit`).
 MAX_VISIBILITY_CHECKS = 10**9
 #: Lattice states one search may enter before it gives up (about 80 bytes each).
@@ -97,7 +99,8 @@ class Limits:
 
 def _search(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray, spec: AgentSpec,
             move_cost: int, turn_cost: int, visible: Callable[[Pose], bool],
-            limits: Limits, may_see: MaySee | None) -> tuple[Plan, int]:
+            limits: Limits, may_see: MaySee | None, unseen: Unseen | None
+            ) -> tuple[Plan, int]:
     # the occupancy table of the simulator's check, with a border for "outside the grid"
     # (clearance 0 there, as grid.clearance_at has it)
     ok = np.full((grid.shape[0] + 2, grid.shape[1] + 2), 0.0 >= spec.radius_m)
@@ -132,6 +135,9 @@ def _search(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray, spec:
             if renders >= limits.verdicts:
                 raise SearchLimit(f"gave up after {renders} views rendered, {lat.states} "
                                   "poses searched")
+            if unseen is not None and unseen(pose):
+                lat.mark_unseen(s)
+                continue
             t, asked = fewest_tilts(pose, bound, spec, visible, may_see)
             renders += asked
             if t is None:
@@ -156,14 +162,16 @@ class Expert:
 
 def expert(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray,
            visible: Callable[[Pose], bool], spec: AgentSpec = AgentSpec(),
-           limits: Limits = Limits(), may_see: MaySee | None = None) -> Expert:
+           limits: Limits = Limits(), may_see: MaySee | None = None,
+           unseen: Unseen | None = None) -> Expert:
     """Plan the expert's action sequence from ``start`` to a pose from which ``found``
     succeeds on the object centred at ``target`` (room frame; ``corners``: points (N, 3) whose
     hull holds it, for the frustum test), and the optimum references of SPL and SNA.
-    ``may_see``: a bound that spares ``visible`` the views that cannot show the object."""
-    plan = plan_to_see(start, grid, target, corners, visible, spec, limits, may_see)
+    ``may_see``, ``unseen``: bounds that spare ``visible`` the views that cannot show the
+    object (:data:`MaySee`, :data:`Unseen`)."""
+    plan = plan_to_see(start, grid, target, corners, visible, spec, limits, may_see, unseen)
     fewest, total = _search(start, grid, target, corners, spec, 1, 1, visible, limits,
-                            may_see)
+                            may_see, unseen)
     if total != len(fewest.actions) or total > len(plan.actions):
         raise AssertionError(f"fewest-actions search: {total} actions, plan "
                              f"{len(fewest.actions)}, expert {len(plan.actions)}")
@@ -172,10 +180,12 @@ def expert(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray,
 
 def plan_to_see(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray,
                 visible: Callable[[Pose], bool], spec: AgentSpec = AgentSpec(),
-                limits: Limits = Limits(), may_see: MaySee | None = None) -> Plan:
+                limits: Limits = Limits(), may_see: MaySee | None = None,
+                unseen: Unseen | None = None) -> Plan:
     """The expert's own plan from ``start`` (fewest forward moves, then fewest turns and
     tilts; the first search of :func:`expert`), without the fewest-actions search."""
-    plan, _ = _search(start, grid, target, corners, spec, 1000, 1, visible, limits, may_see)
+    plan, _ = _search(start, grid, target, corners, spec, 1000, 1, visible, limits, may_see,
+                      unseen)
     if len(plan.actions) > MAX_ACTIONS:
         raise NoPath(f"the shortest plan takes {len(plan.actions)} actions, more than "
                      f"{MAX_ACTIONS}")

@@ -65,6 +65,13 @@ def pack(a, b, c, d, heading, headings):
 
 
 @njit(cache=True)
+def position_key(a, b, c, d, headings):
+    """The hash key that marks lattice position (a, b, c, d) as one from which the object
+    cannot be seen (negative: apart from every state's key and from the empty slot, -1)."""
+    return -(pack(a, b, c, d, 0, headings) + 2)
+
+
+@njit(cache=True)
 def free_at(ok, res, hi0, hi1, x, y):
     """The occupancy table ``ok`` (a border of "outside" around the grid) at (x, y)."""
     fi = min(max(np.floor(x / res), -1.0), hi0 - 1.0)
@@ -234,7 +241,8 @@ def _run(g, px, py, par, act, nact, closed, coords, hkeys, hval, oheap, fheap, c
         k = coords[s, 4]
         # a goal candidate: within reach, and the object in a frustum at some tilt
         dx, dy = fp[P_TX] - x0, fp[P_TY] - y0
-        if dx * dx + dy * dy <= reach2:
+        if dx * dx + dy * dy <= reach2 and hkeys[_slot(hkeys, position_key(
+                coords[s, 0], coords[s, 1], coords[s, 2], coords[s, 3], headings))] == -1:
             t = tilt_bound(corners, x0, y0, k, fp, ip)
             if t >= 0:
                 total = c + t * ip[I_TILT_COST] + 1
@@ -390,6 +398,18 @@ class Lattice:
             self._found = np.resize(self._found, 2 * len(self._found))
         self._counts[C_FOUND] = _push(self._found, int(self._counts[C_FOUND]),
                                       total * _C_TOTAL + state * _T_SPAN + tilt_steps + _T_OFF)
+
+    def mark_unseen(self, state: int) -> None:
+        """The object cannot be seen from ``state``'s position (any heading, any tilt): the
+        position's other states are no candidates."""
+        if 2 * (self._counts[C_USED] + 1) > len(self._hkeys):
+            self._hkeys, self._hval = rehash(self._hkeys, self._hval, 2 * len(self._hkeys))
+        a, b, c, d = self.coords[state, :4].tolist()
+        key = int(position_key(a, b, c, d, int(self._ip[I_HEADINGS])))
+        j = int(_slot(self._hkeys, key))
+        if self._hkeys[j] != key:
+            self._hkeys[j], self._hval[j] = key, -1
+            self._counts[C_USED] += 1
 
     def heading(self, state: int) -> int:
         return int(self.coords[state, 4])

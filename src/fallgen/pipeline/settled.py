@@ -101,6 +101,11 @@ class SettledRoom:
             ) >= VISIBLE_PIXELS and self.camera.shows(self.data, pose, VISIBLE_PIXELS)
         return seen
 
+    def unseen(self, pose: Pose) -> bool:
+        """Whether the scene's opaque faces hide the object from the camera at ``pose``'s
+        position, whatever its heading and tilt."""
+        return self.sight(pose).hidden
+
     def may_see(self, pose: Pose, tilts: list[int]) -> np.ndarray:
         """For each tilt (degrees) of ``pose``'s position and heading, whether the view can
         show enough of the object to be visible (False only where it cannot)."""
@@ -115,9 +120,9 @@ class SettledRoom:
         if s is None:
             if self._occluders is None:
                 self._occluders = Occluders(self.scene.model, self.data,
-                                            self.scene.object_body["target"], self.corners)
+                                            self.scene.object_body["target"], self.outline)
             s = self._sights[key] = self._occluders.look(
-                np.array([pose.x, pose.y, self.spec.camera_height_m]), self.outline)
+                np.array([pose.x, pose.y, self.spec.camera_height_m]))
         return s
 
     def note_visible(self, pose: Pose, pixels: int) -> bool:
@@ -130,13 +135,13 @@ class SettledRoom:
         """The expert's plan from ``start`` and the references of SPL and SNA (raises
         :class:`fallgen.nav.expert.NoPath`)."""
         return expert(start, self.grid, self.centre, self.corners, self.visible, self.spec,
-                      may_see=self.may_see)
+                      may_see=self.may_see, unseen=self.unseen)
 
     def plan(self, start: Pose) -> Plan:
         """The expert's own plan from ``start`` (fewest forward moves, then fewest turns)
         without the fewest-actions search: what an oracle of the next action needs."""
         return plan_to_see(start, self.grid, self.centre, self.corners, self.visible,
-                           self.spec, may_see=self.may_see)
+                           self.spec, may_see=self.may_see, unseen=self.unseen)
 
     def object_distance_m(self, pose: Pose) -> float:
         """Horizontal distance from ``pose`` to the object's centre."""
