@@ -188,9 +188,9 @@ def rays_goal_line(reports: list[RoomReport]) -> str:
     ratio = [float(np.mean(r.rays_over_model[mid])) for r in reports]
     lo, hi = RT60_GOAL_S
     out = sorted(k for k, v in t30.items() if not lo <= v <= hi)
-    return (f"RT60 goal, rays' T30 at 500 Hz-1 kHz within {lo:g}-{hi:g} s: "
-            f"{'met' if not out else 'not met'} by {len(t30) - len(out)} of {len(t30)} "
-            f"variants ({min(t30.values()):.2f}-{max(t30.values()):.2f} s; rays / model "
+    return (f"RT60 goal (the rays' T30 at 500 Hz-1 kHz within {lo:g}-{hi:g} s): "
+            f"{'met' if not out else 'NOT met'}; {len(t30) - len(out)} of {len(t30)} variants "
+            f"inside ({min(t30.values()):.2f}-{max(t30.values()):.2f} s; rays / model "
             f"{min(ratio):.2f}-{max(ratio):.2f})" + (f"; outside: {', '.join(out)}" if out else ""))
 
 
