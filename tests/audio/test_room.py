@@ -122,3 +122,23 @@ def test_deterministic_for_the_same_generator():
 def test_source_outside_the_room_is_refused():
     with pytest.raises(ValueError):
         arrivals(_uniform(0.2), (7.0, 1.0, 1.0), MIC, 2)
+
+
+def test_sabine_and_eyring_of_a_shoebox():
+    """A 6 x 4 x 3 m shoebox absorbing 0.6 on its ceiling and 0.04 elsewhere (1 kHz, no
+    air): Sabine's 0.161 V / A is pyroomacoustics' rt60_theory("sabine") within 0.5 % (its
+    constant is 24 ln 10 / 343.2); Eyring's 0.161 V / (-S ln(1 - mean alpha)) is the hand
+    value 0.597 s (V 72 m^3, S 108 m^2, mean alpha 0.1644). pyroomacoustics' "eyring" sums
+    -S_i ln(1 - alpha_i) over the faces (Millington-Sette: 0.456 s here), another formula."""
+    pra = pytest.importorskip("pyroomacoustics")
+    wa = np.full((6, 7), 0.04)
+    wa[5] = 0.6
+    room = RoomAcoustics(DIM, wa, np.zeros(7))
+    names = ("west", "east", "south", "north", "floor", "ceiling")
+    ref = pra.ShoeBox(list(DIM), fs=FS, max_order=1, air_absorption=False,
+                      materials={k: pra.Material(float(wa[i, 3])) for i, k in enumerate(names)})
+    assert room.sabine_rt60()[3] == pytest.approx(ref.rt60_theory(formula="sabine"), rel=0.005)
+    mean_alpha = (24 * 0.6 + 84 * 0.04) / 108
+    assert room.eyring_rt60()[3] == pytest.approx(0.161 * 72 / (-108 * np.log(1 - mean_alpha)),
+                                                  rel=1e-9)
+    assert room.eyring_rt60()[3] == pytest.approx(0.597, abs=0.001)
