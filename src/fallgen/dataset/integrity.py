@@ -68,11 +68,11 @@ PKG = Path(__file__).resolve().parent.parent
 #: source that shapes a rehearsal file (the physics and the world it runs in)
 REHEARSAL_CODE = ("physics", "world")
 #: source that shapes a shard: the episode (replay, spawn, audio, views, maps, the expert's
-#: plan), the plan of the build and the writer
+#: plan), the plan of the build and the writer (this module only hashes: a change to what it
+#: hashes changes the fingerprints by itself)
 GENERATION_CODE = ("audio", "nav", "physics", "vision", "world", "pipeline/episode.py",
                    "pipeline/settled.py", "pipeline/plan.py", "pipeline/generate.py",
-                   "dataset/writer.py", "dataset/schema.py", "dataset/integrity.py",
-                   "__init__.py")
+                   "dataset/writer.py", "dataset/schema.py", "__init__.py")
 
 
 # --- hashing -------------------------------------------------------------------------------------
@@ -179,12 +179,15 @@ class Stamp:
 
 
 def difference(old: Mapping | None, new: Mapping, most: int = 3) -> str:
-    """What differs between two inputs dicts, in a few words (``config.generate.audio_s 2.0 ->
-    1.0, code of nav``)."""
+    """What differs between two inputs dicts, in a few words, the config's first
+    (``config.generate.audio_s 2.0 -> 1.0, the code of fallgen.nav``)."""
     if not old:
         return "no record of what made it"
     parts = []
-    for k in sorted(set(old) | set(new)):
+    order = ("config.", "world.", "events.", "hrtf", "plan", "shard", "variant", "code.")
+    for k in sorted(set(old) | set(new),
+                    key=lambda k: (next((i for i, o in enumerate(order) if k.startswith(o)),
+                                        len(order)), k)):
         a, b = old.get(k), new.get(k)
         if a == b or k == "build":  # "build" hashes the others
             continue
