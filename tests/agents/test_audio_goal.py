@@ -80,6 +80,16 @@ def test_a_truthful_audio_estimate_leads_the_agent_to_the_object(memorised, tiny
     assert sum(r["success"] for r in recs) >= len(recs) - 1, [r["outcome"] for r in recs]
 
 
+def _labels(tiny_dataset, world):
+    from fallgen.env import FallenObjectsEnv
+
+    probe = FallenObjectsEnv(tiny_dataset, sensors=("pose",), world=world)
+    try:
+        return probe.category_labels
+    finally:
+        probe.close()
+
+
 def test_evaluate_with_an_audio_model_end_to_end(tiny_dataset, tmp_path, cli):
     model, out = tmp_path / "audio.model", tmp_path / "run"
     assert cli("audio-model", "train", str(tiny_dataset), "-o", str(model), "--trees",
@@ -89,6 +99,32 @@ def test_evaluate_with_an_audio_model_end_to_end(tiny_dataset, tmp_path, cli):
     assert cli(*args, "-o", str(out)) == 0
     s = json.loads((out / "summary.json").read_text())
     assert s["agent"] == "modular+audio[segmentation]" and s["n"] == 6
+    recs = [json.loads(x) for x in (out / "episodes.jsonl").read_text().splitlines()]
+    assert s["success"] == pytest.approx(sum(r["success"] for r in recs) / len(recs))
+    # the command line played the agent the library composes: the modular agent with the
+    # model file's predictor as its goal, seeded as evaluate seeds it (the same actions,
+    # played here in this process); without the predictor it acts otherwise
+    from fallgen.agents.audio_goal import AudioGoalPredictor
+    from fallgen.agents.modular import ModularAgent
+    from fallgen.env import FallenObjectsEnv
+    from fallgen.evaluation.runner import play
+    from fallgen.perception.audio_model import AudioModel
+    from fallgen.world.library import load_world
+
+    world = load_world(None)
+    mine = ModularAgent(_labels(tiny_dataset, world), world.categories.ids("target"),
+                        oracles=("segmentation",),
+                        predictor=AudioGoalPredictor(AudioModel.load(model)))
+    blind = ModularAgent(_labels(tiny_dataset, world), world.categories.ids("target"),
+                         oracles=("segmentation",))
+    env = FallenObjectsEnv(tiny_dataset, sensors=mine.sensors, world=world)
+    try:
+        for r in recs[:2]:
+            assert play(env, mine, r["episode_id"])["actions"] == r["actions"]
+        assert any(play(env, blind, r["episode_id"])["actions"] != r["actions"]
+                   for r in recs[:2])
+    finally:
+        env.close()
     assert cli(*args, "--audio-top-k", "3", "-o", str(tmp_path / "top3")) == 0
     s3 = json.loads((tmp_path / "top3" / "summary.json").read_text())
     assert s3["agent"] == "modular+audio(top 3)[segmentation]"

@@ -36,32 +36,80 @@ def _rms(p):
     return float(np.sqrt(np.mean(p ** 2)))
 
 
+def _first_impact(e):
+    """The event with its first impact alone (the fall's other contacts left out)."""
+    first = next(c for c in e.contacts if c.kind == "impact")
+    return dataclasses.replace(e, contacts=(first,)), first
+
+
+def _floor_reference_j(world, e, c) -> float:
+    """The dry energy (J, as radiated_energy_j counts it) of the floor's sound for one impact
+    by the floor model that is checked against building acoustics (fallgen.audio.floors: the
+    ISO tapping machine rates within 1 dB of EN ISO 12354-2, carpets' and the rug's Delta L_w
+    within their measured ranges): a rigid impactor of the impact's effective mass (its
+    recorded compression impulse over its speed), in the target's material, on the
+    variant's floor struck through what the impact met (its finish, or a rug on it), without
+    the bodies' modes."""
+    from fallgen.audio.floors import hit_pressure, surface_plate
+
+    inst = world.categories.instance(e.target.category, e.target.variant, e.target.material,
+                                     e.target.scale)
+    floor = dataclasses.replace(world.variant(e.room_variant).surfaces["floor"],
+                                impact_material=c.material_other)
+    plate = surface_plate(floor, world.materials)
+    radius = float(np.clip(0.25 * np.min(inst.extents_m), 0.001, 0.05))  # as fall.py takes it
+    m_eff = min(c.impulse_ns / c.normal_speed_mps, inst.mass_kg)
+    p, _, _, _ = hit_pressure(plate, inst.material, m_eff, radius, c.normal_speed_mps, FS)
+    return radiated_energy_j(p, FS)
+
+
+def _check_floor_hit(p_floor, ref_j, tol_db=2.0):
+    """A fall's floor sound for one impact carries the floor model's energy within
+    ``tol_db`` (the coupled contact lends part of the impact to the object's modes)."""
+    got = radiated_energy_j(p_floor, FS)
+    assert abs(10 * np.log10(got / ref_j)) <= tol_db, (got, ref_j)
+
+
 def test_fall_sound_both_bodies_deterministic(world, renderer, drop_event):
     e = drop_event(world, "key", "house", "metal/brass", 1.0)
     assert any(c.kind == "impact" for c in e.contacts)
     parts = renderer.render_bodies(e, np.random.default_rng(1))
     assert set(parts) >= {"target", "floor"}
-    for name, p in parts.items():
-        assert np.isfinite(p).all() and _rms(p) > 0, name
     total = renderer.render(e, np.random.default_rng(1))
     assert np.array_equal(total, renderer.render(e, np.random.default_rng(1)))
     assert np.allclose(total, np.sum(list(parts.values()), axis=0))
     assert total.shape == (2 * FS,)
-    # a brass key dropped 1 m onto a floor, heard at 1 m: a clearly audible click, peak
-    # between 80 and 120 dB SPL (0.2 and 20 Pa): absolute units, not a normalised signal
-    assert 0.2 < np.abs(total).max() < 20.0
+    # absolute units: the floor's share of the first impact (a brass key dropped 1 m onto
+    # study_loft's concrete) is the building-acoustics floor model's for that impact, within
+    # 2 dB; and the key rings louder than the slab it hits (its modes, not only its click)
+    one, c = _first_impact(e)
+    first = renderer.render_bodies(one, np.random.default_rng(1))
+    ref = _floor_reference_j(world, e, c)
+    _check_floor_hit(first["floor"], ref)
+    assert radiated_energy_j(first["target"], FS) > radiated_energy_j(first["floor"], FS)
+    # the check rejects a floor 6 dB too loud or too quiet, and a normalised one (1 Pa peak)
+    for wrong in (2 * first["floor"], first["floor"] / 2,
+                  first["floor"] / np.abs(first["floor"]).max()):
+        with pytest.raises(AssertionError):
+            _check_floor_hit(wrong, ref)
     # silent before the first contact
-    first = min(c.time_s for c in e.contacts)
-    assert np.abs(total[: int(first * FS) - 2]).max() == 0.0
+    t0 = min(c.time_s for c in e.contacts)
+    assert np.abs(total[: int(t0 * FS) - 2]).max() == 0.0
 
 
 def test_higher_fall_is_louder(world, renderer, drop_event):
-    low = renderer.render(drop_event(world, "key", "house", "metal/brass", 0.3),
-                          np.random.default_rng(0))
-    high = renderer.render(drop_event(world, "key", "house", "metal/brass", 1.5),
-                           np.random.default_rng(0))
+    events = [drop_event(world, "key", "house", "metal/brass", h) for h in (0.3, 1.5)]
+    low, high = (renderer.render(e, np.random.default_rng(0)) for e in events)
     # first-impact speed ratio sqrt(1.5 / 0.3) = 2.2: the loudest moment is clearly louder
     assert np.abs(high).max() > 1.5 * np.abs(low).max()
+    # and each first floor hit carries what the floor model gives its impact (2.4 and
+    # 5.4 m/s: 8.5 dB apart by that model), within 2 dB
+    refs = []
+    for e in events:
+        one, c = _first_impact(e)
+        refs.append(_floor_reference_j(world, e, c))
+        _check_floor_hit(renderer.render_bodies(one, np.random.default_rng(0))["floor"], refs[-1])
+    assert refs[1] > 4 * refs[0]  # 6 dB at least
 
 
 def _t60(p):
@@ -121,7 +169,13 @@ def test_a_fall_onto_a_rug_is_a_dull_thud(world, renderer):
     assert on_rug.contacts[0].other == "rug" and on_floor.contacts[0].other == "floor"
     rug_parts = renderer.render_bodies(on_rug, np.random.default_rng(0))
     rung = [p for name, p in rug_parts.items() if name.startswith("rug#")]
-    assert rung and _rms(rung[0]) > 0  # the floor under the rug rings
+    assert len(rung) == 1  # the floor under the rug rings, struck through it
+    # ... as the floor model has the slab struck through the rug (its first impact alone)
+    one, c = _first_impact(on_rug)
+    first = {n: p for n, p in renderer.render_bodies(one, np.random.default_rng(0)).items()
+             if n.startswith("rug#")}
+    (p_rug,) = first.values()
+    _check_floor_hit(p_rug, _floor_reference_j(world, on_rug, c))
     a = np.sum(list(rug_parts.values()), axis=0)
     b = renderer.render(on_floor, np.random.default_rng(0))
     assert 20 * np.log10(np.abs(b).max() / np.abs(a).max()) > 20
@@ -194,26 +248,76 @@ def _energy_ratio(renderer, e) -> float:
     return sum(radiated_energy_j(src.signal, FS) for src in sources) / renderer.energy_lost_j(e)
 
 
-def test_every_category_radiates_a_bounded_share_of_what_its_fall_loses(world, renderer,
-                                                                        drop_event):
-    """The energy account: a fall's sound carries between 1e-8 (a cork coaster: ~1e-6) and
-    AUDIO_ENERGY_CEILING of
-    the mechanical energy the fall loses (measured impacts: ~1e-4 to 1e-2), for every target
-    category in every material its first variant comes in, dropped 1 m onto the floor, and a
-    steel toaster from 1.5 m (its thin panels took 9-49 % when the modes were handed the
-    rigid-body impulse whatever the wall could take)."""
+#: The largest share of an impact's lost energy measured in sound (hard, heavy impacts:
+#: ~1e-4 to 1e-2; Koss & Alfredson 1973, Akay 1978)
+MEASURED_SHARE = (1e-4, 1e-2)
+
+
+@pytest.fixture(scope="module")
+def every_category(world, renderer, drop_event):
+    """Every target category in every material its first variant comes in, dropped 1 m onto
+    study_loft's concrete floor, and a steel toaster from 1.5 m: (case, energy share,
+    radiated energy, the floor model's energy for its first impact, mass)."""
     cats = world.categories
     cases = [(cid, cats.categories[cid].variants[0].name, mat, 1.0)
              for cid in cats.ids("target")
              for mat in sorted(cats.categories[cid].variants[0].materials)]
     cases.append(("toaster", "steel", "metal/appliance", 1.5))
-    worst = {}
+    out = []
     for cid, variant, mat, height in cases:
         e = drop_event(world, cid, variant, mat, height)
-        r = _energy_ratio(renderer, e)
-        worst[(cid, mat)] = r
-        assert 1e-8 < r <= AUDIO_ENERGY_CEILING, (cid, variant, mat, r)
-    assert len({c for c, _ in worst}) == len(cats.ids("target"))
+        sources = renderer.render_sources(e, np.random.default_rng(0))
+        radiated = sum(radiated_energy_j(src.signal, FS) for src in sources)
+        c = next(c for c in e.contacts if c.kind == "impact")
+        assert c.other == "floor", (cid, c.other)
+        out.append(((cid, variant, mat, height), radiated / renderer.energy_lost_j(e), radiated,
+                    _floor_reference_j(world, e, c),
+                    cats.instance(cid, variant, mat).mass_kg))
+    return out
+
+
+def _check_share(share, radiated, floor_ref):
+    """A fall radiates at most the largest measured share (1e-2, below AUDIO_ENERGY_CEILING)
+    and at least its first impact's floor sound by the floor model, within 6 dB (the coupled
+    contact lends part of it to the object's modes; the Hertz time is the whole body's)."""
+    assert share <= min(MEASURED_SHARE[1], AUDIO_ENERGY_CEILING), share
+    assert radiated >= floor_ref / 4, (radiated, floor_ref)
+
+
+def test_every_category_radiates_a_bounded_share_of_what_its_fall_loses(world, every_category):
+    """The energy account: a fall's sound carries at most the largest share of the energy an
+    impact loses that has been measured (1e-2: a toaster's thin panels took 9-49 % when the
+    modes were handed the rigid-body impulse whatever the wall could take), and at least what
+    the floor model (checked against EN ISO 12354-2 and the ISO tapping machine) says its
+    first impact's floor hit radiates, for every target category."""
+    for case, share, radiated, ref, _ in every_category:
+        try:
+            _check_share(share, radiated, ref)
+        except AssertionError as err:
+            raise AssertionError(f"{case}: {err}") from None
+    assert len({case[0] for case, *_ in every_category}) == \
+        len(world.categories.ids("target"))
+    # the check rejects a silent fall, one 20 dB too loud, and a constant share at the
+    # 5 % ceiling
+    case, share, radiated, ref, _ = max(every_category, key=lambda r: r[1])
+    for wrong in ((share * 1e-3, radiated * 1e-3), (share * 100, radiated * 100),
+                  (AUDIO_ENERGY_CEILING, radiated)):
+        with pytest.raises(AssertionError):
+            _check_share(*wrong, ref)
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "measured hard, heavy impacts radiate 1e-4..1e-2 of what they lose (Koss & Alfredson "
+    "1973, Akay 1978); dropped 1 m onto concrete, a 377 g sheet-steel bookend radiates "
+    "2.1e-5, a 145 g steel watch 4.3e-5, a 138 g aluminium iPod 9.7e-6 and a 104 g table "
+    "knife 2.6e-6 (glassware, ceramics and the toaster lie in the range)"))
+def test_hard_heavy_falls_radiate_the_measured_share(every_category):
+    """Hard (glass, ceramic, metal), heavy (>= 100 g) bodies falling onto concrete are the
+    impacts the measured range describes."""
+    hard = ("glass", "ceramic", "metal")
+    low = [(case, share) for case, share, _, _, mass in every_category
+           if case[2].split("/")[0] in hard and mass >= 0.1 and share < MEASURED_SHARE[0]]
+    assert low == [], low
 
 
 def test_a_wedged_contacts_excess_impulse_makes_no_sound(world, renderer, drop_event):

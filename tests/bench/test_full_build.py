@@ -16,6 +16,35 @@ import pytest
 REPO = Path(__file__).resolve().parents[2]
 
 
+#: bench/full_build.py's goals (README, Benchmarks): the paper-size build in 15 minutes
+#: (the original took ~8 hours), a worker under 1 GB
+GOAL_MIN, ORIGINAL_H, GOAL_WORKER_MB = 15.0, 8.0, 1024.0
+
+
+def _check_build_report(rep: dict, episodes: int) -> None:
+    """The report's numbers agree with each other and with the goals, recomputed here: the
+    whole build's time is its phases' and the world's loading before them (at most 15 s; the
+    times rounded to 0.01 min), the verdicts the goals applied to the numbers, the speed-up
+    over the original 8 h and of the workers the ratios of the times, the peak the workers'
+    largest, the bytes per episode the bytes over the episodes."""
+    w = rep["wall_min"]
+    assert -0.02 <= w["total"] - (w["rehearse"] + w["generate"]) <= 0.25, w
+    assert min(w["rehearse"], w["generate"]) > 0
+    assert rep["meets_goal"] == (w["total"] < GOAL_MIN)
+    assert rep["speedup_vs_original_8h"] == pytest.approx(ORIGINAL_H * 60 / w["total"],
+                                                          rel=0.02)
+    assert rep["generation"]["episodes"] == episodes
+    assert rep["bytes_per_episode"] == rep["bytes"] // episodes
+    peaks = [x["peak_rss_mb"] for ph in ("rehearsal", "generation")
+             for x in rep[ph]["workers"]]
+    assert rep["peak_worker_mb"] == max(peaks)
+    assert rep["meets_worker_memory_goal"] == (max(peaks) < GOAL_WORKER_MB)
+    assert rep["cpu_use"] == pytest.approx(rep["cpu_s"] / (60 * w["total"]), rel=0.05)
+    one = rep["one_worker"]
+    assert one["speedup_of_workers"] == pytest.approx(one["generate_min"] / w["generate"],
+                                                      rel=0.05, abs=0.02), (one, w)
+
+
 @pytest.mark.xdist_group("tiny_build")
 def test_full_build_bench_reports_a_valid_build_and_its_fingerprint(tiny_build, tmp_path):
     sys.path.insert(0, str(REPO / "bench"))
@@ -32,16 +61,31 @@ def test_full_build_bench_reports_a_valid_build_and_its_fingerprint(tiny_build, 
                        capture_output=True, text=True, env=dict(os.environ))
     assert r.returncode == 0, r.stderr[-2000:]
     rep = json.loads(r.stdout.strip().splitlines()[-1])
-    assert rep["valid"] and rep["generation"]["episodes"] == 6
+    assert rep["valid"] and rep["problems"] == []
     assert rep["fingerprint"] == fingerprint(read_manifest(base / "one"))
     assert rep["fingerprint"] == fingerprint(read_manifest(out))
+    # the bytes are those of the files the build left
+    size = sum(p.stat().st_size for d in ("data", "media") for p in (out / d).glob("*"))
+    assert rep["bytes"] == size
     # the pool's workers (two at most; how it deals the units is its own business), each with
     # its peak
     assert all(1 <= len(rep[ph]["workers"]) <= 2 for ph in ("rehearsal", "generation"))
     assert all(100 < w["peak_rss_mb"] < 4096 for ph in ("rehearsal", "generation")
                for w in rep[ph]["workers"])
-    assert rep["peak_worker_mb"] == max(w["peak_rss_mb"] for ph in ("rehearsal", "generation")
-                                        for w in rep[ph]["workers"])
-    assert rep["wall_min"]["total"] > 0 and rep["meets_goal"]
+    _check_build_report(rep, 6)
     # the generation again in one process: the same data and media files
-    assert rep["one_worker"]["same_bytes"] and rep["one_worker"]["speedup_of_workers"] > 0
+    assert rep["one_worker"]["same_bytes"]
+    # the check rejects a flipped verdict, a total that is not its phases', a peak that is
+    # not the workers' largest and a workers' speed-up off by half
+    for path, value in ((("meets_goal",), not rep["meets_goal"]),
+                        (("wall_min", "total"), rep["wall_min"]["total"] + 1.0),
+                        (("peak_worker_mb",), rep["peak_worker_mb"] + 100),
+                        (("one_worker", "speedup_of_workers"),
+                         rep["one_worker"]["speedup_of_workers"] * 1.5)):
+        bad = json.loads(json.dumps(rep))
+        node = bad
+        for k in path[:-1]:
+            node = node[k]
+        node[path[-1]] = value
+        with pytest.raises(AssertionError):
+            _check_build_report(bad, 6)

@@ -11,6 +11,9 @@ import pytest
 
 from fallgen.env import SENSORS  # every sensor, oracles included
 
+#: The success rule's "visible" (README, The benchmark): at least 4 pixels of the object in view
+VISIBLE_PIXELS = 4
+
 pytestmark = pytest.mark.xdist_group("tiny_build")
 
 
@@ -58,6 +61,11 @@ def test_reset_gives_the_datasets_own_step0_observation(env, tiny_dataset):
         assert env.observation_space.contains(obs)
 
 
+def _target_pixels(obs) -> int:
+    """Pixels of the object's category in a view's category segmentation."""
+    return int(np.sum(obs["category_seg"][..., 0] == int(obs["object_category"])))
+
+
 def test_expert_actions_replayed_step_by_step(env, tiny_dataset):
     """The oracle's next action from the spawn on is the dataset's expert sequence; replaying
     it succeeds with SPL 1 and the stored SNA; the paper's reward adds up by hand."""
@@ -69,11 +77,13 @@ def test_expert_actions_replayed_step_by_step(env, tiny_dataset):
         obs, _ = env.reset(options={"episode_id": row["episode_id"]})
         centre = env._room.centre[:2]
         total, expected = 0.0, 0.0
+        shown = [_target_pixels(obs)]
         for k, a in enumerate(row["expert_actions"]):
             assert int(obs["expert_action"]) == a
             p0 = np.array(row["expert_poses"][k][:2])
             p1 = np.array(row["expert_poses"][k + 1][:2])
             obs, r, term, trunc, info = env.step(a)
+            shown.append(_target_pixels(obs))
             total += r
             expected += -0.01
             if a == FORWARD and not np.array_equal(p0, p1):
@@ -85,7 +95,10 @@ def test_expert_actions_replayed_step_by_step(env, tiny_dataset):
         assert info["spl"] == 1.0 and info["sna"] == pytest.approx(row["expert_sna"])
         assert info["path_length_m"] == row["expert_path_m"] == row["shortest_path_m"]
         assert info["step"] == len(row["expert_actions"])
-        assert 0 <= info["first_seen_step"] <= len(row["expert_actions"])
+        # the first view (0: the spawn's, k: after k actions) whose segmentation shows the
+        # object's category in VISIBLE_PIXELS pixels or more (no distractor shares it)
+        assert info["first_seen_step"] == next(k for k, n in enumerate(shown)
+                                               if n >= VISIBLE_PIXELS), shown
         assert info["soft_spl"] == 1.0
         # the agent's pose in the spawn's frame, as the pose sensor has it
         x, y, h, t = row["expert_poses"][-1]
@@ -297,22 +310,27 @@ def test_a_room_that_differs_from_the_stored_one_is_refused(tiny_dataset, tmp_pa
 
 
 def test_render_and_record_video(tiny_dataset, tmp_path):
+    """The rendered frame is the agent's own view (the rgb it observes) beside the room from
+    above; RecordVideo writes it."""
     import gymnasium as gym
     from gymnasium.wrappers import RecordVideo
 
     import fallgen.env
 
     pytest.importorskip("moviepy")
-    e = gym.make(fallgen.env.ENV_ID, dataset=str(tiny_dataset), sensors=("depth", "pose"),
+    e = gym.make(fallgen.env.ENV_ID, dataset=str(tiny_dataset), sensors=("rgb", "depth", "pose"),
                  render_mode="rgb_array")
     e = RecordVideo(e, str(tmp_path / "video"), episode_trigger=lambda k: True,
                     disable_logger=True)
     try:
-        e.reset(seed=0)
+        obs, _ = e.reset(seed=0)
         frame = e.render()
         assert frame.shape == (300, 600, 3) and frame.dtype == np.uint8
+        assert np.array_equal(frame[:, :300], obs["rgb"])
         for _ in range(5):
-            e.step(1)
+            obs, *_ = e.step(1)
+            frame = e.render()
+            assert np.array_equal(frame[:, :300], obs["rgb"])
     finally:
         e.close()
     assert list((tmp_path / "video").glob("*.mp4"))

@@ -38,6 +38,25 @@ def test_readme_environment_snippet_runs(tiny_dataset):
         scope["env"].close()
 
 
+def _check_look_around(recs: list[dict], summary: dict) -> None:
+    """What the README's LookAround does, episode by episode: turn left 11 times, step
+    forward, again, until it claims (action 5, only as its last) or runs out of 200 actions;
+    the summary's success rate is the episodes' mean."""
+    for r in recs:
+        acts = r["actions"]
+        claimed = acts[-1] == 5
+        walk = acts[:-1] if claimed else acts
+        assert walk == [0 if (k + 1) % 12 == 0 else 1 for k in range(len(walk))], r["actions"]
+        assert r["steps"] == len(acts)
+        if claimed:
+            assert r["outcome"] in ("found", "wrong_found") and r["success"] == \
+                (r["outcome"] == "found")
+        else:
+            assert len(acts) == 200 and r["outcome"] == "timeout" and not r["success"]
+    assert summary["success"] == pytest.approx(sum(r["success"] for r in recs) / len(recs))
+    assert summary["n"] == len(recs)
+
+
 def test_readme_agent_example_evaluates_from_its_file(tiny_dataset, tmp_path, cli):
     _, agent_block = _blocks()
     f = tmp_path / "my_agent.py"
@@ -48,7 +67,18 @@ def test_readme_agent_example_evaluates_from_its_file(tiny_dataset, tmp_path, cl
             .splitlines()]
     assert len(recs) == 6
     s = json.loads((tmp_path / "look" / "summary.json").read_text())
-    assert s["agent"].endswith("my_agent.py:LookAround") and 0 <= s["success"] <= 1
+    assert s["agent"].endswith("my_agent.py:LookAround")
+    _check_look_around(recs, s)
+    # the check rejects the actions of another agent (the random baseline's) and a summary
+    # that is not its episodes' mean
+    assert cli("evaluate", str(tiny_dataset), "--split", "all", "--baseline", "random",
+               "-o", str(tmp_path / "random"), "--workers", "1") == 0
+    other = [json.loads(x) for x in (tmp_path / "random" / "episodes.jsonl").read_text()
+             .splitlines()]
+    with pytest.raises(AssertionError):
+        _check_look_around(other, s)
+    with pytest.raises(AssertionError):
+        _check_look_around(recs, dict(s, success=1.0 - s["success"] + 0.01))
     # a broken file: one line naming it, exit 2
     bad = tmp_path / "broken.py"
     bad.write_text("class X(:\n")

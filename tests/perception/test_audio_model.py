@@ -66,14 +66,78 @@ def test_relative_place():
     assert az == pytest.approx(-math.pi / 4)  # heading north, the object north-east: right
 
 
+def _truth_place(row: dict, where=None) -> tuple[float, float]:
+    """Azimuth (rad, counter-clockwise from the spawn heading) and distance (m) of ``where``
+    (default: where the object came to rest) from the agent's spawn, written out here."""
+    x, y = (row["settle_pos"][0], row["settle_pos"][1]) if where is None else where
+    dx, dy = x - row["spawn_x"], y - row["spawn_y"]
+    return math.atan2(dy, dx) - row["spawn_yaw_rad"], math.hypot(dx, dy)
+
+
+def _angle_deg(a: float, b: float) -> float:
+    d = (a - b) % (2 * math.pi)
+    return math.degrees(min(d, 2 * math.pi - d))
+
+
+def _topk_bounds(p: np.ndarray, classes, truth: str, k: int) -> tuple[float, float]:
+    """Whether ``truth`` is among the ``k`` most probable classes: (1, 1) or (0, 0), or (0, 1)
+    where ties at the k-th probability leave it to the sort order."""
+    if truth not in classes:
+        return 0.0, 0.0
+    q = p[list(classes).index(truth)]
+    above, tied = int(np.sum(p > q)), int(np.sum(p == q))
+    return float(above + tied <= k), float(above < k)
+
+
+def _check_scores(scores, model, ds, rows, train_rows, world):
+    """An eval's scores recomputed here from the model's own predictions for each clip and
+    from the rows: category top-1 / top-5 and material top-1 (ties at the cut allowed either
+    way), the azimuth's median error; and the no-audio prior: the train split's most frequent
+    category and material (any of those tied for most frequent), the room's centre as where
+    the fall was (its median azimuth error)."""
+    from collections import Counter
+
+    preds = [model.predict(ds.arrays(r, ("audio",))["audio"]) for r in rows]
+    for key, k, field, classes in (("category_top1", 1, "category", "categories"),
+                                   ("category_top5", 5, "category", "categories"),
+                                   ("material_top1", 1, "audio_material", "materials")):
+        lo = np.mean([_topk_bounds(p.category_p if field == "category" else p.material_p,
+                                   getattr(p, classes), r[field], k)[0]
+                      for p, r in zip(preds, rows)])
+        hi = np.mean([_topk_bounds(p.category_p if field == "category" else p.material_p,
+                                   getattr(p, classes), r[field], k)[1]
+                      for p, r in zip(preds, rows)])
+        assert lo - 1e-9 <= scores[key] <= hi + 1e-9, (key, scores[key], lo, hi)
+    az = [_angle_deg(p.azimuth_rad, _truth_place(r)[0]) for p, r in zip(preds, rows)]
+    assert scores["azimuth_median_error_deg"] == pytest.approx(float(np.median(az)), abs=1e-6)
+    prior = scores["prior"]
+    for key, field in (("category_top1", "category"), ("material_top1", "audio_material")):
+        counts = Counter(r[field] for r in train_rows)
+        top = max(counts.values())
+        options = [np.mean([r[field] == c for r in rows]) for c, n in counts.items()
+                   if n == top]
+        assert any(prior[key] == pytest.approx(o) for o in options), (key, prior[key], options)
+    centre_err = []
+    for r in rows:
+        lx, ly, _ = world.variant(r["room_variant"]).size_m
+        centre_err.append(_angle_deg(_truth_place(r, (lx / 2, ly / 2))[0], _truth_place(r)[0]))
+    assert prior["azimuth_median_error_deg"] == pytest.approx(float(np.median(centre_err)),
+                                                              abs=1e-6)
+
+
 def test_train_and_eval_end_to_end(tiny_dataset, tmp_path, cli):
     """``fallgen audio-model train`` on the tiny build's train split and ``eval`` on its test
-    split: a model file, scores against the prior and chance, confusion PNGs; the model
+    split: the scores are the model's own predictions scored against the truth, the prior
+    the train split's frequencies and the room's centre (recomputed here); on its training
+    clips the model names every category, which the prior cannot; confusion PNGs; the model
     predicts for a clip; a model file whose clips differ from the dataset's is refused in one
     line, and so is a file that is not a model."""
+    import copy
+
     from fallgen.dataset.reader import Dataset
     from fallgen.errors import InputError
     from fallgen.perception.audio_model import AudioModel, check_features
+    from fallgen.world.library import load_world
 
     model = tmp_path / "audio.model"
     out = tmp_path / "eval"
@@ -81,18 +145,38 @@ def test_train_and_eval_end_to_end(tiny_dataset, tmp_path, cli):
                "20") == 0
     assert cli("audio-model", "eval", str(tiny_dataset), "-m", str(model), "-o", str(out)) == 0
     scores = json.loads((out / "scores.json").read_text())
-    for key in ("category_top1", "category_top5", "material_top1", "azimuth_median_error_deg",
-                "distance_rank_correlation", "position_median_error_m"):
-        assert key in scores
-    assert 0.0 <= scores["category_top1"] <= scores["category_top5"] <= 1.0
-    assert set(scores["prior"]) >= {"category_top1", "azimuth_median_error_deg"}
-    assert scores["by_zone_kind"] and scores["by_distance"]
-    assert (out / "confusion_category.png").stat().st_size > 1000
-    assert (out / "confusion_material.png").stat().st_size > 1000
-
     ds = Dataset(tiny_dataset)
     m = AudioModel.load(model)
-    row = ds.rows("test")[0]
+    world = load_world(None)
+    test_rows, train_rows = ds.rows("test"), ds.rows("train")
+    assert scores["episodes"] == len(test_rows)
+    _check_scores(scores, m, ds, test_rows, train_rows, world)
+    # the check rejects a report off by one episode's category, or by 10 degrees of prior
+    wrong = copy.deepcopy(scores)
+    wrong["category_top1"] = scores["category_top1"] + 1 / len(test_rows) \
+        if scores["category_top1"] < 1 else 0.5
+    with pytest.raises(AssertionError):
+        _check_scores(wrong, m, ds, test_rows, train_rows, world)
+    wrong = copy.deepcopy(scores)
+    wrong["prior"]["azimuth_median_error_deg"] += 10.0
+    with pytest.raises(AssertionError):
+        _check_scores(wrong, m, ds, test_rows, train_rows, world)
+    assert scores["by_zone_kind"] and scores["by_distance"]
+    assert sum(v["episodes"] for v in scores["by_zone_kind"].values()) == len(test_rows)
+    assert (out / "confusion_category.png").stat().st_size > 1000
+    assert (out / "confusion_material.png").stat().st_size > 1000
+    # on its own training clips the trees (grown to single clips) name every category; the
+    # prior, one category for all, only as many as the most frequent one holds
+    mine = tmp_path / "eval-train"
+    assert cli("audio-model", "eval", str(tiny_dataset), "-m", str(model), "--split", "train",
+               "-o", str(mine)) == 0
+    on_train = json.loads((mine / "scores.json").read_text())
+    _check_scores(on_train, m, ds, train_rows, train_rows, world)
+    assert on_train["category_top1"] == 1.0
+    if len({r["category"] for r in train_rows}) > 1:
+        assert on_train["prior"]["category_top1"] < 1.0
+
+    row = test_rows[0]
     p = m.predict(ds.arrays(row, ("audio",))["audio"])
     assert p.category in p.categories and abs(p.category_p.sum() - 1) < 1e-6
     assert p.distance_m > 0 and -math.pi <= p.azimuth_rad <= math.pi

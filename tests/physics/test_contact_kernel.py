@@ -183,8 +183,9 @@ def test_event_arrays_grow_when_they_fill(world):
 def test_raw_layout_and_step_agree_with_the_bindings():
     """mjraw's offsets are checked on a live simulation; mj_step called by address steps
     exactly as the bindings' mj_step does."""
+    import ctypes
+
     lay = mjraw.layout()
-    assert lay.con_size > lay.con_efc_address > lay.con_geom > lay.con_frame > lay.con_pos > 0
     xml = ('<mujoco><worldbody><geom type="plane" size="2 2 .1"/><body pos="0 0 .5">'
            '<freejoint/><geom type="box" size=".1 .05 .02"/></body></worldbody></mujoco>')
     m = mujoco.MjModel.from_xml_string(xml)
@@ -195,4 +196,19 @@ def test_raw_layout_and_step_agree_with_the_bindings():
     rec = ContactRecorder(m, 1, ("floor", "obj:box"), ("wood", "plastic"))
     rec.step(d2, 400)
     assert np.array_equal(d1.qpos, d2.qpos) and np.array_equal(d1.qvel, d2.qvel)
-    assert d1.ncon > 0  # the resting box touches the floor
+    assert d1.ncon > 1  # the resting box touches the floor at its corners
+    # the offsets, read off this simulation's own contacts through the bindings' arrays
+    # (views into mjData's contact buffer: their addresses and stride)
+    con = d2.contact
+    base = con.dist.ctypes.data
+    assert ctypes.c_void_p.from_address(d2._address + lay.contact).value == base
+    assert ctypes.c_int.from_address(d2._address + lay.ncon).value == d2.ncon
+    assert ctypes.c_void_p.from_address(d2._address + lay.efc_force).value == \
+        d2.efc_force.ctypes.data
+    assert con.pos.strides[0] == con.geom.strides[0] == lay.con_size
+    for field, offset in (("pos", lay.con_pos), ("frame", lay.con_frame), ("dim", lay.con_dim),
+                          ("geom", lay.con_geom), ("efc_address", lay.con_efc_address)):
+        assert getattr(con, field).ctypes.data - base == offset, field
+    # and the second contact's geoms read raw are the bindings' (floor 0, box 1)
+    raw = (ctypes.c_int * 2).from_address(base + lay.con_size + lay.con_geom)
+    assert list(raw) == list(con.geom[1]) == [0, 1]

@@ -35,11 +35,21 @@ def test_view_arrays_and_labels(cam_scene):
     assert "obj:target" in v.instances and "cup" in cam.categories and "floor" in cam.categories
     px = v.pixels_of("obj:target")
     assert px > 20
-    # the cup's pixels are labelled with its category, and lie in the middle columns
+    # the cup's pixels are labelled with its category, and lie where a pinhole camera of the
+    # model's vertical field of view, at the robot's camera height, tilted 15 degrees down,
+    # projects the cup's centre of mass: straight ahead, 1.49 m away and 1.06 m below the eye
     mask = v.instance == v.instances.index("obj:target")
     assert (v.category[mask] == cam.categories.index("cup")).all()
-    cols = np.nonzero(mask.any(0))[0]
-    assert 130 < cols.mean() < 170
+    rows, cols = np.nonzero(mask)
+    eye = np.array([2.5, 1.8, AgentSpec().camera_height_m])
+    rel = d.xipos[cam.scene.object_body["target"]] - eye
+    tilt = np.radians(-15.0)
+    forward = rel[0] * np.cos(tilt) + rel[2] * np.sin(tilt)
+    up = -rel[0] * np.sin(tilt) + rel[2] * np.cos(tilt)
+    left = rel[1]
+    focal = 150.0 / np.tan(np.radians(cam.scene.model.vis.global_.fovy / 2))
+    assert cols.mean() == pytest.approx(149.5 - focal * left / forward, abs=1.0)
+    assert rows.mean() == pytest.approx(149.5 - focal * up / forward, abs=2.0)
     again = cam.render(d, Pose(2.5, 1.8, 0, -15))
     assert np.array_equal(v.rgb, again.rgb) and np.array_equal(v.instance, again.instance)
 

@@ -37,16 +37,49 @@ def test_every_material_exists_and_all_audio_materials_used(world):
     assert len(used) >= 12, sorted(set(AUDIO_MATERIALS) - used)
 
 
-def test_geometry_watertight_positive_volume(world):
+def tetrahedra_mass_properties(vertices, faces):
+    """Volume, centre of mass and inertia tensor about it (density 1) of a closed, outward
+    wound triangle mesh, summed over the tetrahedra each face makes with the origin
+    (divergence theorem; a tetrahedron (0, a, b, c) of signed volume V = a . (b x c) / 6 has
+    second moment V / 20 (s s^T + a a^T + b b^T + c c^T), s = a + b + c)."""
+    v = np.asarray(vertices, float)[np.asarray(faces)]
+    a, b, c = v[:, 0], v[:, 1], v[:, 2]
+    vol = np.einsum("ij,ij->i", a, np.cross(b, c)) / 6
+    s = a + b + c
+    com = (vol[:, None] * s / 4).sum(0) / vol.sum()
+    cov = sum(np.einsum("i,ij,ik->jk", vol / 20, x, x) for x in (s, a, b, c))
+    cov -= vol.sum() * np.outer(com, com)
+    return float(vol.sum()), com, np.trace(cov) * np.eye(3) - cov
+
+
+def test_geometry_watertight_and_its_mass_properties(world):
+    """Every variant's mesh is closed and outward wound; its volume, centre of mass and
+    inertia (what sets an object's mass and how it tumbles) are the mesh's own, integrated
+    here tetrahedron by tetrahedron."""
     lib = world.categories
     for cat in lib:
         for v in cat.variants:
             g = lib.geometry(cat.id, v.name)
             mesh = trimesh.Trimesh(g.vertices, g.faces, process=False)
             assert mesh.is_watertight and mesh.is_winding_consistent, (cat.id, v.name)
-            assert g.volume_m3 > 0 and mesh.volume > 0, (cat.id, v.name)
-            assert np.all(np.linalg.eigvalsh(g.inertia_per_density) > 0), (cat.id, v.name)
+            vol, com, inertia = tetrahedra_mass_properties(g.vertices, g.faces)
+            assert vol > 0 and g.volume_m3 == pytest.approx(vol, rel=1e-9), (cat.id, v.name)
+            assert np.allclose(g.com, com, rtol=0, atol=1e-9 * np.ptp(g.vertices)), \
+                (cat.id, v.name)
+            np.testing.assert_allclose(g.inertia_per_density, inertia, rtol=1e-7,
+                                       atol=1e-9 * np.abs(inertia).max(),
+                                       err_msg=f"{cat.id}/{v.name}")
             assert 1 <= len(g.collision) <= 32
+
+
+def test_tetrahedra_reference_is_exact_for_a_box():
+    """The reference itself: a 0.1 x 0.2 x 0.3 m box, I = V (b^2 + c^2) / 12 about x..."""
+    box = trimesh.creation.box((0.1, 0.2, 0.3))
+    box.apply_translation((1.0, -2.0, 0.5))
+    vol, com, inertia = tetrahedra_mass_properties(box.vertices, box.faces)
+    assert vol == pytest.approx(0.006) and np.allclose(com, (1.0, -2.0, 0.5))
+    want = 0.006 / 12 * np.diag([0.2 ** 2 + 0.3 ** 2, 0.1 ** 2 + 0.3 ** 2, 0.1 ** 2 + 0.2 ** 2])
+    np.testing.assert_allclose(inertia, want, atol=1e-15)
 
 
 def test_sampling_is_seeded(world):

@@ -92,8 +92,11 @@ def test_shoebox(world):
         sb = v.shoebox()
         assert sb.size_m == v.size_m
         a = np.array(sb.absorption())
+        assert sorted(SHOEBOX_FACES) == sorted(("west", "east", "south", "north", "floor",
+                                               "ceiling"))
         assert a.shape == (len(SHOEBOX_FACES), len(OCTAVE_BANDS_HZ))
-        assert ((a >= 0) & (a <= 1)).all()
+        for face, row in zip(SHOEBOX_FACES, a):  # each face absorbs as its surface's table
+            assert np.array_equal(row, v.surfaces[face].absorption), (v.id, face)
         assert sb.faces["floor"] is v.surfaces["floor"]
 
 

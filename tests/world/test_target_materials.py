@@ -3,7 +3,12 @@ a real share of the draws."""
 
 from __future__ import annotations
 
-from collections import defaultdict
+import math
+from collections import Counter, defaultdict
+
+import numpy as np
+import pytest
+import trimesh
 
 from fallgen.world.materials import AUDIO_MATERIALS
 
@@ -20,8 +25,20 @@ def test_every_audio_material_is_a_targets(world):
                 # a category, then a variant, then a material by weight (ObjectLibrary.sample)
                 share[world.materials.object(m).audio] += w / total / len(cat.variants) \
                     / len(targets)
+                # an instance weighs its mesh's volume times its material's density
                 inst = c.instance(cid, v.name, m)
-                assert 1e-4 < inst.mass_kg < 3.0, (cid, v.name, m, inst.mass_kg)
+                mesh = trimesh.Trimesh(inst.geometry.vertices, inst.geometry.faces,
+                                       process=False)
+                assert inst.mass_kg == pytest.approx(
+                    mesh.volume * world.materials.object(m).density_kg_m3, rel=1e-9), (cid, m)
     assert set(share) == set(AUDIO_MATERIALS)
     # each at least ~0.8 % of the draws (a paper-size build: ~60+ episodes of each)
     assert min(share.values()) > 0.008, dict(share)
+    # the shares are those of the sampler's own draws (20000 of them: within 5 standard
+    # errors, ~0.35 % for a 1 % share)
+    rng = np.random.default_rng(11)
+    n = 20000
+    drawn = Counter(c.sample(rng, targets[int(rng.integers(len(targets)))]).material.audio
+                    for _ in range(n))
+    for audio, p in share.items():
+        assert drawn[audio] / n == pytest.approx(p, abs=5 * math.sqrt(p * (1 - p) / n)), audio
