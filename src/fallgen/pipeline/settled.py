@@ -27,7 +27,8 @@ from fallgen.physics.events import FallEvent
 from fallgen.vision.camera import EgoCamera
 from fallgen.vision.gl import GLContext
 from fallgen.vision.camera import FOV_DEG, WIDTH
-from fallgen.vision.sight import Occluders, Sight, geom_points
+from fallgen.vision.faces import geom_points
+from fallgen.vision.sight import Occluders, Sight
 from fallgen.world.library import World
 from fallgen.world.scene import LOOK, VIEW, PlacedObject, build_scene
 

@@ -24,7 +24,7 @@ import numpy as np
 from fallgen.nav.agent import AgentSpec, Pose
 from fallgen.nav.occupancy import geom_box_corners
 from fallgen.vision.gl import GLContext, SceneFrames
-from fallgen.vision.sight import DRAWN_GROUPS
+from fallgen.vision.faces import DRAWN_GROUPS
 from fallgen.world.scene import WALL_OWNERS, Scene
 
 WIDTH = HEIGHT = 300

@@ -83,17 +83,28 @@ def convex_hull(px, py, n, ox, oy):
 
 
 @njit(cache=True)
+def _grow(xs, ys, ns, used):
+    """The piece arrays with twice the room, their first ``used`` pieces kept."""
+    cap = 2 * len(ns)
+    gx, gy = np.empty((cap, MAX_VERTICES)), np.empty((cap, MAX_VERTICES))
+    gn = np.zeros(cap, np.int64)
+    gx[:used], gy[:used], gn[:used] = xs[:used], ys[:used], ns[:used]
+    return gx, gy, gn
+
+
+@njit(cache=True)
 def subtract(gx, gy, gn, cx, cy, cn, count, dust, max_pieces):
     """The convex polygon (``gx``, ``gy``, its first ``gn`` vertices) minus the union of the
     ``count`` convex polygons ``cx[i, :cn[i]]``, ``cy[i, :cn[i]]`` (either orientation), as
     disjoint convex pieces: (xs, ys, vertex counts, number of pieces); -1 pieces when more
     than ``max_pieces`` were needed."""
-    px = np.empty((max_pieces, MAX_VERTICES))
-    py = np.empty((max_pieces, MAX_VERTICES))
-    pn = np.zeros(max_pieces, np.int64)
-    qx = np.empty((max_pieces, MAX_VERTICES))
-    qy = np.empty((max_pieces, MAX_VERTICES))
-    qn = np.zeros(max_pieces, np.int64)
+    cap = min(64, max_pieces)  # room for pieces, doubled as needed up to max_pieces
+    px = np.empty((cap, MAX_VERTICES))
+    py = np.empty((cap, MAX_VERTICES))
+    pn = np.zeros(cap, np.int64)
+    qx = np.empty((cap, MAX_VERTICES))
+    qy = np.empty((cap, MAX_VERTICES))
+    qn = np.zeros(cap, np.int64)
     sign = 1.0 if area2(gx, gy, gn) >= 0.0 else -1.0
     for i in range(gn):  # counter-clockwise
         k = i if sign > 0 else gn - 1 - i
@@ -112,8 +123,10 @@ def subtract(gx, gy, gn, cx, cy, cn, count, dust, max_pieces):
             n = pn[p]
             if px[p, :n].max() <= x0 or px[p, :n].min() >= x1 or py[p, :n].max() <= y0 \
                     or py[p, :n].min() >= y1:
-                if out >= max_pieces:
-                    return px, py, pn, -1
+                if out >= len(qn):
+                    if len(qn) >= max_pieces:
+                        return px, py, pn, -1
+                    qx, qy, qn = _grow(qx, qy, qn, out)
                 qx[out, :n], qy[out, :n], qn[out] = px[p, :n], py[p, :n], n
                 out += 1
                 continue
@@ -132,8 +145,10 @@ def subtract(gx, gy, gn, cx, cy, cn, count, dust, max_pieces):
                 if nb < 0:
                     return px, py, pn, -1
                 if nb >= 3 and abs(area2(bx, by, nb)) > 2 * dust:
-                    if out >= max_pieces:
-                        return px, py, pn, -1
+                    if out >= len(qn):
+                        if len(qn) >= max_pieces:
+                            return px, py, pn, -1
+                        qx, qy, qn = _grow(qx, qy, qn, out)
                     qx[out, :nb], qy[out, :nb], qn[out] = bx[:nb], by[:nb], nb
                     out += 1
                 na = clip(ax, ay, na, a, b, c, bx, by)
@@ -146,6 +161,8 @@ def subtract(gx, gy, gn, cx, cy, cn, count, dust, max_pieces):
         px, qx = qx, px
         py, qy = qy, py
         pn, qn = qn, pn
+        if len(qn) < len(pn):  # the next round may need as much room as this one had
+            qx, qy, qn = _grow(qx, qy, qn, 0)
         pieces = out
         if pieces == 0:
             break

@@ -8,16 +8,17 @@ behind a cabinet, inside a pan or a box. :meth:`Occluders.look` bounds, without 
 directions in which the object can show from an eye, and :meth:`Sight.max_pixels` the pixels a
 view can then show; the bounds never fall short:
 
-- the occluders are the faces the renderer draws opaque (a box geom's six faces, a mesh geom's
-  triangles; geoms in the groups views draw, alpha 1 in their colour and material; the object's
-  own geoms excluded); a sphere, ellipsoid, cylinder or capsule, which the renderer draws as a
-  polyhedron with its vertices on the surface, stands in as a polyhedron inside that one
-  (:func:`geom_triangles`), used only from eyes outside its bounding sphere;
-- the renderer culls back faces (``tests/vision`` checks it), so a face counts only from its
-  front, and only if the eye is farther from its plane than twice the near clipping distance;
-- a face hides what lies behind its plane: every vertex of the hull of the object's drawn
-  geometry at least ``BEHIND_M`` behind it, the eye in front, so along every ray through the
-  face the face comes first (by at least that much, far beyond the depth buffer's resolution);
+- the occluders are the faces the renderer draws opaque (:class:`fallgen.vision.faces.FaceSet`:
+  boxes, meshes, stand-ins for round geoms; the object's own geoms excluded), used only from
+  eyes outside a stand-in's geom;
+- a convex solid hides the object from an eye when a plane separates them with the eye on the
+  solid's side (every vertex of the hull of the object's drawn geometry at least ``BEHIND_M``
+  beyond it) and the eye lies outside the solid's box grown by twice the renderer's near
+  clipping distance: its image is then the hull of its vertices' images;
+- any other face counts only from its front (the renderer culls back faces: ``tests/vision``
+  checks it), with the eye farther from its plane than twice the near clipping distance, and
+  hides what lies behind its plane (the object ``BEHIND_M`` or more behind it): along every
+  ray through it, it comes first, far beyond the depth buffer's resolution;
 - seen from the eye (a gnomonic projection about the direction to the object), the image of
   the hull of the object's boxes, grown by ``MARGIN`` (0.15 pixels or more of any view), minus
   the faces' images, is what can show (:func:`fallgen.vision.cover.subtract`, exact convex
@@ -35,10 +36,9 @@ import mujoco
 import numpy as np
 from numba import njit
 
-from fallgen.vision.cover import MAX_VERTICES, clip, subtract
+from fallgen.vision.cover import MAX_VERTICES, clip, convex_hull, subtract
+from fallgen.vision.faces import DRAWN_GROUPS, FaceSet
 
-#: The geom groups views draw (MuJoCo's default visualisation options): 0, 1 and 2.
-DRAWN_GROUPS = np.array(mujoco.MjvOption().geomgroup, np.uint8)
 #: How far (m) the object must lie behind an occluding face's plane: far beyond the depth
 #: buffer's resolution (24 bits from a near plane of ~5 cm: ~0.03 mm at 5 m).
 BEHIND_M = 0.002
@@ -48,131 +48,78 @@ MARGIN = 1e-3
 #: A view's pixel centres this close (pixels) to what can show are counted.
 SLACK_PX = 0.2
 #: Pieces the subtraction may keep before it gives up (then every view is rendered).
-MAX_PIECES = 256
+MAX_PIECES = 8192
 #: Area (tangent units squared) below which a leftover piece is rounding, not a gap: a pixel
 #: is about 4e-5.
 DUST = 1e-14
 #: The object's image is bounded by its extents along this many directions (each both ways).
 _SIDES = 16
-#: The six faces of a unit box: the corner signs of each, counter-clockwise seen from outside.
-_BOX_FACES = np.array([
-    [[-1, -1, -1], [-1, -1, 1], [-1, 1, 1], [-1, 1, -1]],
-    [[1, -1, -1], [1, 1, -1], [1, 1, 1], [1, -1, 1]],
-    [[-1, -1, -1], [1, -1, -1], [1, -1, 1], [-1, -1, 1]],
-    [[-1, 1, -1], [-1, 1, 1], [1, 1, 1], [1, 1, -1]],
-    [[-1, -1, -1], [-1, 1, -1], [1, 1, -1], [1, -1, -1]],
-    [[-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]],
-], float)
-_BOX_TRIANGLES = np.concatenate([_BOX_FACES[:, [0, 1, 2]], _BOX_FACES[:, [0, 2, 3]]])
-
-
-def drawn_opaque(model: mujoco.MjModel, g: int) -> bool:
-    """Whether the views draw geom ``g`` (its group) and draw it opaque (its colour's and its
-    material's alpha 1)."""
-    if not DRAWN_GROUPS[min(int(model.geom_group[g]), len(DRAWN_GROUPS) - 1)]:
-        return False
-    alpha = float(model.geom_rgba[g, 3])
-    mat = int(model.geom_matid[g])
-    if mat >= 0:
-        alpha = min(alpha, float(model.mat_rgba[mat, 3]))
-    return alpha >= 1.0
-
-
-def _prism(sides: int) -> np.ndarray:
-    """(4 sides, 3, 3) triangles of a unit prism (radius 1, z in [-1, 1]) with ``sides``
-    sides, counter-clockwise seen from outside."""
-    a = 2 * np.pi * np.arange(sides) / sides
-    ring = np.column_stack([np.cos(a), np.sin(a)])
-    tris = []
-    for i in range(sides):
-        (x0, y0), (x1, y1) = ring[i], ring[(i + 1) % sides]
-        tris += [[(x0, y0, -1), (x1, y1, -1), (x1, y1, 1)], [(x0, y0, -1), (x1, y1, 1), (x0, y0, 1)],
-                 [(0, 0, 1), (x0, y0, 1), (x1, y1, 1)], [(0, 0, -1), (x1, y1, -1), (x0, y0, -1)]]
-    return np.array(tris, float)
-
-
-def _octasphere() -> np.ndarray:
-    """Triangles of a unit sphere's inscribed polyhedron (an octahedron split twice: 128
-    faces, vertices on the sphere), counter-clockwise seen from outside."""
-    tris = [np.array(t, float) for t in (
-        [(1, 0, 0), (0, 1, 0), (0, 0, 1)], [(0, 1, 0), (-1, 0, 0), (0, 0, 1)],
-        [(-1, 0, 0), (0, -1, 0), (0, 0, 1)], [(0, -1, 0), (1, 0, 0), (0, 0, 1)],
-        [(0, 1, 0), (1, 0, 0), (0, 0, -1)], [(-1, 0, 0), (0, 1, 0), (0, 0, -1)],
-        [(0, -1, 0), (-1, 0, 0), (0, 0, -1)], [(1, 0, 0), (0, -1, 0), (0, 0, -1)])]
-    for _ in range(2):
-        out = []
-        for a, b, c in tris:
-            ab, bc, ca = ((u + v) / np.linalg.norm(u + v) for u, v in ((a, b), (b, c), (c, a)))
-            out += [np.array(t) for t in ((a, ab, ca), (ab, b, bc), (ca, bc, c), (ab, bc, ca))]
-        tris = out
-    return np.array(tris)
-
-
-_PRISM = _prism(12)
-_SPHERE = _octasphere()
-
-
-def inner_ratio(model: mujoco.MjModel) -> float:
-    """The fraction of a round geom's size that the renderer's polyhedron for it holds
-    everywhere: its faces' vertices lie on the surface, ``numslices`` around and
-    ``numstacks`` along, so every face lies within (pi / slices + pi / stacks) of the
-    surface's normal direction; a little less again for rounding."""
-    q = model.vis.quality
-    return 0.999 * math.cos(math.pi / q.numslices + math.pi / q.numstacks)
-
-
-def geom_triangles(model: mujoco.MjModel, data: mujoco.MjData, g: int) -> np.ndarray | None:
-    """(M, 3, 3) world triangles of geom ``g``, counter-clockwise seen from their front: a
-    box's faces, a mesh's as stored; for a round geom, a polyhedron inside the one the
-    renderer draws (:func:`inner_ratio`; a capsule's cylinder only). None for other types."""
-    pos, rot = data.geom_xpos[g], data.geom_xmat[g].reshape(3, 3)
-    t = int(model.geom_type[g])
-    size = model.geom_size[g]
-    if t == mujoco.mjtGeom.mjGEOM_BOX:
-        local = _BOX_TRIANGLES * size
-    elif t == mujoco.mjtGeom.mjGEOM_MESH:
-        mesh = int(model.geom_dataid[g])
-        v0, nv = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
-        f0, nf = model.mesh_faceadr[mesh], model.mesh_facenum[mesh]
-        local = model.mesh_vert[v0:v0 + nv].astype(float)[model.mesh_face[f0:f0 + nf]]
-    elif t in (mujoco.mjtGeom.mjGEOM_SPHERE, mujoco.mjtGeom.mjGEOM_ELLIPSOID):
-        radii = size[[0, 0, 0]] if t == mujoco.mjtGeom.mjGEOM_SPHERE else size[:3]
-        local = _SPHERE * (inner_ratio(model) * radii)
-    elif t in (mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_CAPSULE):
-        r = inner_ratio(model) * size[0]
-        local = _PRISM * np.array([r, r, 0.999 * size[1]])
-    else:
-        return None
-    return local @ rot.T + pos
-
-
-def _round(model: mujoco.MjModel, g: int) -> bool:
-    return int(model.geom_type[g]) in (mujoco.mjtGeom.mjGEOM_SPHERE,
-                                       mujoco.mjtGeom.mjGEOM_ELLIPSOID,
-                                       mujoco.mjtGeom.mjGEOM_CYLINDER,
-                                       mujoco.mjtGeom.mjGEOM_CAPSULE)
-
-
-def geom_points(model: mujoco.MjModel, data: mujoco.MjData, g: int) -> np.ndarray:
-    """(N, 3) world points whose hull holds geom ``g`` as drawn: a mesh's vertices, a box's
-    corners, the corners of another type's bounding box."""
-    pos, rot = data.geom_xpos[g], data.geom_xmat[g].reshape(3, 3)
-    if int(model.geom_type[g]) == mujoco.mjtGeom.mjGEOM_MESH:
-        mesh = int(model.geom_dataid[g])
-        v0, nv = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
-        return model.mesh_vert[v0:v0 + nv].astype(float) @ rot.T + pos
-    c, h = model.geom_aabb[g, :3], model.geom_aabb[g, 3:]
-    signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
-    return (c + signs * h) @ rot.T + pos
+@njit(cache=True)
+def _project_solids(sverts, sstart, slo, shi, ssph, planes, nplanes, eye, w, p, q, box, near,
+                    ox, oy, sizes, used):
+    """The images of the convex solids that hide the object from ``eye`` (a separating plane
+    with the eye on the solid's side, the eye outside the solid's box grown by ``near`` and
+    outside a stand-in's bounding sphere): the hull of their vertices' images (every other
+    vertex dropped until it fits: a polygon inside the image), where it meets ``box``;
+    written from index 0, ``used[k]`` set; returns how many."""
+    k = 0
+    for s in range(len(nplanes)):
+        d2 = 0.0
+        for a in range(3):
+            gap = max(slo[s, a] - eye[a], 0.0, eye[a] - shi[s, a])
+            d2 += gap * gap
+        if d2 < near * near:
+            continue
+        r = ssph[s, 3]
+        if r > 0.0 and (eye[0] - ssph[s, 0]) ** 2 + (eye[1] - ssph[s, 1]) ** 2 \
+                + (eye[2] - ssph[s, 2]) ** 2 <= r * r:
+            continue
+        ok = False
+        for j in range(nplanes[s]):
+            if planes[s, j, 0] * eye[0] + planes[s, j, 1] * eye[1] + planes[s, j, 2] * eye[2] \
+                    < planes[s, j, 3]:
+                ok = True
+                break
+        if not ok:
+            continue
+        n = sstart[s + 1] - sstart[s]
+        ix, iy = np.empty(n), np.empty(n)
+        for j in range(n):
+            v = sverts[sstart[s] + j]
+            rx, ry, rz = v[0] - eye[0], v[1] - eye[1], v[2] - eye[2]
+            z = rx * w[0] + ry * w[1] + rz * w[2]
+            if z <= 1e-3:
+                ok = False
+                break
+            ix[j] = (rx * p[0] + ry * p[1] + rz * p[2]) / z
+            iy[j] = (rx * q[0] + ry * q[1] + rz * q[2]) / z
+        if not ok:
+            continue
+        if ix.max() < box[0] or ix.min() > box[2] or iy.max() < box[1] or iy.min() > box[3]:
+            continue
+        hx, hy = np.empty(n), np.empty(n)
+        m = convex_hull(ix, iy, n, hx, hy)
+        while m > MAX_VERTICES - 2:  # keep every other vertex: a polygon inside the hull
+            half = 0
+            for j in range(0, m, 2):
+                hx[half], hy[half] = hx[j], hy[j]
+                half += 1
+            m = half
+        if m < 3:
+            continue
+        ox[k, :m], oy[k, :m], sizes[k] = hx[:m], hy[:m], m
+        used[s] = True
+        k += 1
+    return k
 
 
 @njit(cache=True)
-def _project_faces(tris, normals, lo, hi, solids, eye, corners, w, p, q, box, near, ox, oy,
-                   sizes):
-    """The gnomonic images (about ``w``, basis ``p``, ``q``) of the faces (each with the object
-    behind it) that face ``eye`` and whose images meet ``box`` (x0, y0, x1, y1), clipped to
-    z >= 1e-3; returns how many were written to ``ox``, ``oy`` (vertex counts in ``sizes``)."""
-    k = 0
+def _project_faces(tris, normals, lo, hi, solids, owner, behind, used, eye, corners, w, p, q,
+                   box, near, ox, oy, sizes, k):
+    """The gnomonic images (about ``w``, basis ``p``, ``q``) of the faces with the object
+    behind them, not of a solid already ``used``, that face ``eye`` and whose images meet
+    ``box`` (x0, y0, x1, y1), clipped to z >= 1e-3, written to ``ox``, ``oy`` (vertex counts
+    in ``sizes``) from index ``k``; returns the new count."""
     xs, ys = np.empty(4), np.empty(4)
     zs, us, vs = np.empty(3), np.empty(3), np.empty(3)
     # the faces that can matter meet the box holding the eye and the object
@@ -183,6 +130,8 @@ def _project_faces(tris, normals, lo, hi, solids, eye, corners, w, p, q, box, ne
     for i in range(tris.shape[0]):
         if lo[i, 0] > bhi[0] or hi[i, 0] < blo[0] or lo[i, 1] > bhi[1] or hi[i, 1] < blo[1] \
                 or lo[i, 2] > bhi[2] or hi[i, 2] < blo[2]:
+            continue
+        if not behind[i] or (owner[i] >= 0 and used[owner[i]]):
             continue
         r = solids[i, 3]
         if r > 0.0 and (eye[0] - solids[i, 0]) ** 2 + (eye[1] - solids[i, 1]) ** 2 \
@@ -223,80 +172,34 @@ def _project_faces(tris, normals, lo, hi, solids, eye, corners, w, p, q, box, ne
     return k
 
 
-@njit(cache=True)
-def _behind(tris, normals, points, margin):
-    """For each face, whether every point lies at least ``margin`` behind its plane."""
-    out = np.zeros(len(tris), np.bool_)
-    for i in range(len(tris)):
-        n0, n1, n2 = normals[i, 0], normals[i, 1], normals[i, 2]
-        v0, v1, v2 = tris[i, 0, 0], tris[i, 0, 1], tris[i, 0, 2]
-        ok = True
-        for j in range(points.shape[0]):
-            if n0 * (points[j, 0] - v0) + n1 * (points[j, 1] - v1) \
-                    + n2 * (points[j, 2] - v2) > -margin:
-                ok = False
-                break
-        out[i] = ok
-    return out
-
-
 class Occluders:
-    """The opaque faces of a static scene that can hide an object (the faces of every drawn,
-    opaque geom but those of ``exclude_body``): those it lies behind, for :meth:`look`.
-    ``points`` (N, 3): points whose hull holds the object as drawn (e.g. the vertices of its
-    meshes' hull)."""
+    """The opaque faces of a static scene that can hide an object (of every drawn, opaque
+    geom but those of ``exclude_body``), for :meth:`look`. ``points`` (N, 3): points whose
+    hull holds the object as drawn (e.g. the vertices of its meshes' hull)."""
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, exclude_body: int,
                  points: np.ndarray, behind_m: float = BEHIND_M) -> None:
-        """``behind_m``: how far behind a face's plane the object must lie for the face to
-        hide it (:data:`BEHIND_M`; tests pass a wrong value to see the proof fail)."""
+        """``behind_m``: how far beyond a face's or a separating plane the object must lie
+        (:data:`BEHIND_M`; tests pass a wrong value to see the proof fail)."""
         self.behind_m = behind_m
         self.points = np.ascontiguousarray(points, float)
         lo, hi = self.points.min(0), self.points.max(0)
-        #: the corners of the points' box: where the object lies, for the faces' box test
+        #: the corners of the points' box: where the object lies
         self.corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
                                  for z in (lo[2], hi[2])])
-        tris, spheres = [], []
-        for g in range(model.ngeom):
-            if model.geom_bodyid[g] == exclude_body or not drawn_opaque(model, g):
-                continue
-            t = geom_triangles(model, data, g)
-            if t is None or not len(t):
-                continue
-            tris.append(t)
-            # a stand-in polyhedron counts only from outside the geom (its bounding sphere)
-            r = float(model.geom_rbound[g]) if _round(model, g) else -1.0
-            spheres.append(np.tile([*data.geom_xpos[g], r], (len(t), 1)))
-        self.triangles = np.ascontiguousarray(np.concatenate(tris) if tris
-                                              else np.zeros((0, 3, 3)))
-        self.solids = np.ascontiguousarray(np.concatenate(spheres) if spheres
-                                           else np.zeros((0, 4)))
-        e1 = self.triangles[:, 1] - self.triangles[:, 0]
-        e2 = self.triangles[:, 2] - self.triangles[:, 0]
-        n = np.cross(e1, e2)
-        length = np.linalg.norm(n, axis=1)
-        keep = length > 1e-12  # degenerate triangles cover nothing
-        unit = n[keep] / length[keep, None]
-        # only faces the object lies wholly behind can hide it (from any eye)
-        behind = _behind(np.ascontiguousarray(self.triangles[keep]), np.ascontiguousarray(unit),
-                         self.points, behind_m)
-        self.triangles = np.ascontiguousarray(self.triangles[keep][behind])
-        self.solids = np.ascontiguousarray(self.solids[keep][behind])
-        self.normals = np.ascontiguousarray(unit[behind])
-        self.lo = np.ascontiguousarray(self.triangles.min(1))
-        self.hi = np.ascontiguousarray(self.triangles.max(1))
+        self.faces = FaceSet(model, data, exclude_body, self.points, behind_m)
         #: twice the renderer's near clipping distance (a fraction of the model's extent)
         self.near_m = 2 * float(model.vis.map.znear) * float(model.stat.extent)
 
     def look(self, eye: np.ndarray) -> Sight:
         """What of the object can show from ``eye`` (3,)."""
         eye = np.asarray(eye, float)
-        corners, points = self.corners, self.points
-        frame = _frame(eye, corners)
-        if len(self.triangles) == 0:
-            return Sight(eye, frame, None)
-        xs, ys, ns, count = _leftover(self.triangles, self.normals, self.lo, self.hi,
-                                      self.solids, eye, corners, points, self.near_m, *frame)
+        f = self.faces
+        frame = _frame(eye, self.corners)
+        xs, ys, ns, count = _leftover(
+            f.triangles, f.normals, f.lo, f.hi, f.spheres, f.owner, f.behind, f.solid_verts,
+            f.solid_start, f.solid_lo, f.solid_hi, f.solid_spheres, f.planes, f.nplanes, eye,
+            self.corners, self.points, self.near_m, *frame)
         if count < 0:
             return Sight(eye, frame, None)
         return Sight(eye, frame, (xs[:count].copy(), ys[:count].copy(), ns[:count].copy()))
@@ -366,7 +269,8 @@ def _frame(eye, corners):
 
 
 @njit(cache=True)
-def _leftover(tris, normals, lo, hi, solids, eye, corners, points, near, w, p, q):
+def _leftover(tris, normals, lo, hi, spheres, owner, behind, sverts, sstart, slo, shi, ssph,
+              planes, nplanes, eye, corners, points, near, w, p, q):
     """The pieces of the object's grown image that no face hides (see :func:`subtract`)."""
     for j in range(corners.shape[0]):
         if (corners[j, 0] - eye[0]) * w[0] + (corners[j, 1] - eye[1]) * w[1] \
@@ -398,11 +302,15 @@ def _leftover(tris, normals, lo, hi, solids, eye, corners, points, near, w, p, q
         hn = clip(hx, hy, hn, -c, -s_, reach, tx, ty)  # keep c x + s y <= reach
         hx[:hn], hy[:hn] = tx[:hn], ty[:hn]
     box = np.array([hx[:hn].min(), hy[:hn].min(), hx[:hn].max(), hy[:hn].max()])
-    ox = np.empty((len(tris), 4))
-    oy = np.empty((len(tris), 4))
-    sizes = np.zeros(len(tris), np.int64)
-    k = _project_faces(tris, normals, lo, hi, solids, eye, corners, w, p, q, box, near, ox, oy,
-                       sizes)
+    nsol = len(nplanes)
+    ox = np.empty((nsol + len(tris), MAX_VERTICES))
+    oy = np.empty((nsol + len(tris), MAX_VERTICES))
+    sizes = np.zeros(nsol + len(tris), np.int64)
+    used = np.zeros(nsol, np.bool_)
+    k = _project_solids(sverts, sstart, slo, shi, ssph, planes, nplanes, eye, w, p, q, box,
+                        near, ox, oy, sizes, used)
+    k = _project_faces(tris, normals, lo, hi, spheres, owner, behind, used, eye, corners, w, p,
+                       q, box, near, ox, oy, sizes, k)
     return subtract(hx, hy, hn, ox, oy, sizes, k, DUST, MAX_PIECES)
 
 
@@ -456,6 +364,5 @@ def _count_pixels(xs, ys, ns, w, p, q, yaw, tilt, size, scale, slack, enough):
     return total
 
 
-__all__ = ["DRAWN_GROUPS", "Occluders", "Sight", "drawn_opaque", "geom_points", "geom_triangles",
-           "BEHIND_M",
+__all__ = ["DRAWN_GROUPS", "Occluders", "Sight", "BEHIND_M",
            "MARGIN", "SLACK_PX"]
