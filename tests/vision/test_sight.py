@@ -16,7 +16,8 @@ from fallgen.nav.agent import AgentSpec, Pose
 from fallgen.pipeline.settled import target_points
 from fallgen.vision.camera import EgoCamera
 from fallgen.vision.cover import convex_hull, covered
-from fallgen.vision.sight import Occluders
+from fallgen.vision.faces import SceneFaces
+from fallgen.vision.sight import Occluders, near_distance
 from fallgen.world.scene import LOOK, PlacedObject, build_scene
 
 
@@ -126,8 +127,10 @@ def test_no_view_from_a_hidden_eye_shows_the_object(world, variant_id):
         d = scene.data()
         mujoco.mj_forward(scene.model, d)
         points = target_points(scene, d)
-        occ = Occluders(scene.model, d, scene.object_body["target"], points)
-        wrong = Occluders(scene.model, d, scene.object_body["target"], points, behind_m=-10.0)
+        others = SceneFaces(scene.model, d, [g for g in range(scene.model.ngeom)
+                                             if scene.geom_owner[g] != "obj:target"])
+        occ = Occluders([others], points, near_distance(scene.model))
+        wrong = Occluders([others], points, near_distance(scene.model), behind_m=-10.0)
         camera = EgoCamera(scene, {"target": "cup", "d0": "book"}, spec)
         try:
             for _ in range(12):

@@ -43,9 +43,9 @@ MaySee = Callable[[Pose, list[int]], "list[bool] | np.ndarray"]
 #: ``unseen(pose)``: True only where no heading or tilt at the pose's position can see it.
 Unseen = Callable[[Pose], bool]
 #: Renderer verdicts one search may ask for before it gives up (:class:`SearchLimit`).
-MAX_VISIBILITY_CHECKS = 10**9
+MAX_VISIBILITY_CHECKS = 1000
 #: Lattice states one search may enter before it gives up (about 80 bytes each).
-MAX_STATES = 4_000_000
+MAX_STATES = 2_000_000
 
 
 @dataclass(frozen=True)

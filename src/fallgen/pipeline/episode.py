@@ -45,6 +45,7 @@ from fallgen.physics.drop import _instance, replay
 from fallgen.physics.events import FallEvent
 from fallgen.pipeline.settled import SettledRoom
 from fallgen.vision.camera import WIDTH, EgoCamera, View, world_category_labels
+from fallgen.vision.faces import SceneFaces
 from fallgen.vision.gl import GLContext
 from fallgen.world.library import World
 from fallgen.world.scene import AgentBody
@@ -131,6 +132,7 @@ class EpisodeMaker:
         self.sounds = FallRenderer(world)
         self.labels = world_category_labels(world)  # one segmentation table for a dataset
         self._room_samples: dict[str, np.ndarray] = {}  # variant -> the room's occupancy layer
+        self._room_faces: dict[str, SceneFaces] = {}  # variant -> its room's drawn faces
         self._rooms: dict[str, RoomAcoustics] = {}  # variant -> its furnished acoustics
         self._gl: GLContext | None = None  # one GL context for every episode's camera
 
@@ -161,7 +163,9 @@ class EpisodeMaker:
                               self._room_samples.get(event.room_variant),
                               appearance=self.appearance,
                               look_seed=appearance_seed(root_seed, episode_id)
-                              if self.appearance_randomization else None)
+                              if self.appearance_randomization else None,
+                              room_faces=None if self.appearance_randomization
+                              else self._room_faces.get(event.room_variant))
         self._room_samples[event.room_variant] = settled.static
         variant, target = settled.variant, _instance(world, event.target)
         data, camera, grid = settled.data, settled.camera, settled.grid
@@ -222,6 +226,8 @@ class EpisodeMaker:
                 shots = tuple(camera.render(data, p) for p in out.poses)
             lap("render")
         finally:
+            if settled.room_faces is not None and not self.appearance_randomization:
+                self._room_faces[event.room_variant] = settled.room_faces
             settled.close()
         return Episode(episode_id, event, spawn, sees, clip, view, grid, grid.cell(centre), ex,
                        out.spl(ex.shortest_m), out.sna(ex.fewest_actions), energy, out.poses,

@@ -27,8 +27,8 @@ from fallgen.physics.events import FallEvent
 from fallgen.vision.camera import EgoCamera
 from fallgen.vision.gl import GLContext
 from fallgen.vision.camera import FOV_DEG, WIDTH
-from fallgen.vision.faces import geom_points
-from fallgen.vision.sight import Occluders, Sight
+from fallgen.vision.faces import SceneFaces, geom_points
+from fallgen.vision.sight import Occluders, Sight, near_distance
 from fallgen.world.library import World
 from fallgen.world.scene import LOOK, VIEW, PlacedObject, build_scene
 
@@ -49,14 +49,15 @@ class SettledRoom:
     """The settled room of ``event``, compiled, with its grid and camera (drawn in ``context``,
     a long-lived :class:`GLContext` of the camera's size). ``labels``: the dataset's category
     table; ``static``: the room variant's own occupancy layer (:func:`room_samples`), when the
-    caller keeps it between episodes of one variant; ``appearance``: drawn with textures and
-    shadows, in the look drawn from ``look_seed`` when given (:mod:`fallgen.world.look`). Close
-    it to free its render context."""
+    caller keeps it between episodes of one variant; ``room_faces``: the faces its room's own
+    geoms are drawn with (:attr:`room_faces`, made on first use), likewise; ``appearance``:
+    drawn with textures and shadows, in the look drawn from ``look_seed`` when given
+    (:mod:`fallgen.world.look`). Close it to free its render context."""
 
     def __init__(self, world: World, event: FallEvent, context: GLContext,
                  labels: tuple[str, ...], spec: AgentSpec = AgentSpec(),
                  static: np.ndarray | None = None, appearance: bool = False,
-                 look_seed: int | None = None) -> None:
+                 look_seed: int | None = None, room_faces: SceneFaces | None = None) -> None:
         self.event, self.spec = event, spec
         self.variant = world.variant(event.room_variant)
         objects = settled_objects(world, event)
@@ -87,6 +88,8 @@ class SettledRoom:
         self._seen: dict[Pose, bool] = {}
         self._sights: dict[tuple[float, float], Sight] = {}
         self._occluders: Occluders | None = None  # made on first use
+        #: the faces the room's own geoms (not the objects') are drawn with, once made
+        self.room_faces = room_faces
 
     def close(self) -> None:
         self.camera.close()
@@ -116,15 +119,24 @@ class SettledRoom:
     def sight(self, pose: Pose) -> Sight:
         """What of the object the scene's opaque faces can let the camera at ``pose`` see,
         whatever its heading and tilt (kept per eye point)."""
-        key = (pose.x, pose.y)
+        key = (round(pose.x, 9), round(pose.y, 9))  # one lattice point, reached any way
         s = self._sights.get(key)
         if s is None:
             if self._occluders is None:
-                self._occluders = Occluders(self.scene.model, self.data,
-                                            self.scene.object_body["target"], self.outline)
+                self._occluders = self._make_occluders()
             s = self._sights[key] = self._occluders.look(
                 np.array([pose.x, pose.y, self.spec.camera_height_m]))
         return s
+
+    def _make_occluders(self) -> Occluders:
+        m, owners = self.scene.model, self.scene.geom_owner
+        if self.room_faces is None:
+            self.room_faces = SceneFaces(m, self.data, [
+                g for g in range(m.ngeom) if not owners[g].startswith("obj:")
+                and owners[g] != "agent"])
+        objects = SceneFaces(m, self.data, [g for g in range(m.ngeom) if owners[g].startswith(
+            "obj:") and owners[g] != "obj:target"])
+        return Occluders([self.room_faces, objects], self.outline, near_distance(m))
 
     def note_visible(self, pose: Pose, pixels: int) -> bool:
         """Record the object's pixel count in a full segmentation render from ``pose`` (the

@@ -3,8 +3,9 @@
 :func:`subtract` subtracts the covering polygons one at a time from what is left of the
 polygon, kept as convex pieces: a piece minus a convex polygon is the piece clipped to the
 outside of each edge in turn (at most one new piece an edge), so the pieces stay convex and
-disjoint. Pieces of area below ``dust`` (the rounding of shared edges) are dropped. Beyond
-``max_pieces`` pieces it gives up (count -1). :func:`covered`: no piece is left.
+disjoint. Pieces of area below ``dust`` (the rounding of shared edges) are dropped. Where it
+would need more pieces or clips than allowed, it stops and returns what is left then, which
+still holds the whole difference. :func:`covered`: no piece is left.
 """
 
 from __future__ import annotations
@@ -93,11 +94,16 @@ def _grow(xs, ys, ns, used):
 
 
 @njit(cache=True)
-def subtract(gx, gy, gn, cx, cy, cn, count, dust, max_pieces):
+def subtract(gx, gy, gn, cx, cy, cn, count, dust, max_pieces, budget=200_000):
     """The convex polygon (``gx``, ``gy``, its first ``gn`` vertices) minus the union of the
     ``count`` convex polygons ``cx[i, :cn[i]]``, ``cy[i, :cn[i]]`` (either orientation), as
-    disjoint convex pieces: (xs, ys, vertex counts, number of pieces); -1 pieces when more
-    than ``max_pieces`` were needed."""
+    convex pieces: (xs, ys, vertex counts, number of pieces). Where more than ``max_pieces``
+    pieces or ``budget`` steps (a piece looked at, a clip) would be needed, the pieces left are
+    returned as they are then
+    (still holding all of the difference, with some of it not yet taken away); -1 pieces only
+    for a polygon of too many vertices."""
+    if gn > MAX_VERTICES - 2:
+        return np.empty((1, MAX_VERTICES)), np.empty((1, MAX_VERTICES)), np.zeros(1, np.int64), -1
     cap = min(64, max_pieces)  # room for pieces, doubled as needed up to max_pieces
     px = np.empty((cap, MAX_VERTICES))
     py = np.empty((cap, MAX_VERTICES))
@@ -113,6 +119,8 @@ def subtract(gx, gy, gn, cx, cy, cn, count, dust, max_pieces):
     pieces = 1
     ax, ay = np.empty(MAX_VERTICES), np.empty(MAX_VERTICES)
     bx, by = np.empty(MAX_VERTICES), np.empty(MAX_VERTICES)
+    clips = 0
+    stop = False
     for t in range(count):
         m = cn[t]
         orient = 1.0 if area2(cx[t], cy[t], m) >= 0.0 else -1.0
@@ -121,12 +129,17 @@ def subtract(gx, gy, gn, cx, cy, cn, count, dust, max_pieces):
         out = 0
         for p in range(pieces):
             n = pn[p]
+            clips += 1
+            # room for every piece this one can leave, and the piece itself
+            while out + m + 1 > len(qn) and len(qn) < max_pieces:
+                qx, qy, qn = _grow(qx, qy, qn, out)
+            if stop or out + m + 1 > len(qn) or clips + 2 * m > budget:
+                stop = True  # keep the rest as it is
+                qx[out, :n], qy[out, :n], qn[out] = px[p, :n], py[p, :n], n
+                out += 1
+                continue
             if px[p, :n].max() <= x0 or px[p, :n].min() >= x1 or py[p, :n].max() <= y0 \
                     or py[p, :n].min() >= y1:
-                if out >= len(qn):
-                    if len(qn) >= max_pieces:
-                        return px, py, pn, -1
-                    qx, qy, qn = _grow(qx, qy, qn, out)
                 qx[out, :n], qy[out, :n], qn[out] = px[p, :n], py[p, :n], n
                 out += 1
                 continue
@@ -134,6 +147,7 @@ def subtract(gx, gy, gn, cx, cy, cn, count, dust, max_pieces):
             for v in range(n):
                 ax[v], ay[v] = px[p, v], py[p, v]
             na = n
+            first = out
             for e in range(m):
                 f = (e + 1) % m
                 # inside: left of the edge for a counter-clockwise polygon
@@ -142,18 +156,22 @@ def subtract(gx, gy, gn, cx, cy, cn, count, dust, max_pieces):
                 c = -(a * cx[t, e] + b * cy[t, e])
                 # the part outside this edge is left over
                 nb = clip(ax, ay, na, -a, -b, -c, bx, by)
-                if nb < 0:
-                    return px, py, pn, -1
+                clips += 2
+                if nb < 0:  # too many vertices: keep the piece whole
+                    out = first
+                    qx[out, :n], qy[out, :n], qn[out] = px[p, :n], py[p, :n], n
+                    out += 1
+                    na = -1
+                    break
                 if nb >= 3 and abs(area2(bx, by, nb)) > 2 * dust:
-                    if out >= len(qn):
-                        if len(qn) >= max_pieces:
-                            return px, py, pn, -1
-                        qx, qy, qn = _grow(qx, qy, qn, out)
                     qx[out, :nb], qy[out, :nb], qn[out] = bx[:nb], by[:nb], nb
                     out += 1
                 na = clip(ax, ay, na, a, b, c, bx, by)
                 if na < 0:
-                    return px, py, pn, -1
+                    out = first
+                    qx[out, :n], qy[out, :n], qn[out] = px[p, :n], py[p, :n], n
+                    out += 1
+                    break
                 for v in range(na):
                     ax[v], ay[v] = bx[v], by[v]
                 if na < 3:
@@ -164,7 +182,7 @@ def subtract(gx, gy, gn, cx, cy, cn, count, dust, max_pieces):
         if len(qn) < len(pn):  # the next round may need as much room as this one had
             qx, qy, qn = _grow(qx, qy, qn, 0)
         pieces = out
-        if pieces == 0:
+        if pieces == 0 or stop:
             break
     return px, py, pn, pieces
 
@@ -172,5 +190,5 @@ def subtract(gx, gy, gn, cx, cy, cn, count, dust, max_pieces):
 @njit(cache=True)
 def covered(gx, gy, gn, cx, cy, cn, count, dust, max_pieces):
     """Whether the convex polygon lies in the union of the convex polygons (see
-    :func:`subtract`; False when it gives up)."""
+    :func:`subtract`; False where it stops short)."""
     return subtract(gx, gy, gn, cx, cy, cn, count, dust, max_pieces)[3] == 0

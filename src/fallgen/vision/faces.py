@@ -9,8 +9,8 @@ that separate each from an object.
   (:func:`inner_ratio`; a capsule's cylinder only). Every triangle is counter-clockwise seen
   from its front (outward for a closed solid).
 - A convex solid hides a point from an eye when a plane separates the solid (with the eye on
-  its side) from the point: along the ray, the solid comes first. :func:`separating_planes`
-  finds such planes, among a few candidate directions, for the hull of an object's points.
+  its side) from the point: along the ray, the solid comes first. :class:`FaceSet` finds such
+  planes, among the world's axes and the solid's own, for the hull of an object's points.
 """
 
 from __future__ import annotations
@@ -136,18 +136,6 @@ def geom_points(model: mujoco.MjModel, data: mujoco.MjData, g: int) -> np.ndarra
     return (c + signs * h) @ rot.T + pos
 
 
-def drawn_opaque(model: mujoco.MjModel, g: int) -> bool:
-    """Whether the views draw geom ``g`` (its group) and draw it opaque (its colour's and its
-    material's alpha 1)."""
-    if not DRAWN_GROUPS[min(int(model.geom_group[g]), len(DRAWN_GROUPS) - 1)]:
-        return False
-    alpha = float(model.geom_rgba[g, 3])
-    mat = int(model.geom_matid[g])
-    if mat >= 0:
-        alpha = min(alpha, float(model.mat_rgba[mat, 3]))
-    return alpha >= 1.0
-
-
 @njit(cache=True)
 def behind_planes(tris, normals, points, margin):
     """For each face, whether every point lies at least ``margin`` behind its plane."""
@@ -178,36 +166,45 @@ def is_convex(tris, normals, verts, tol):
     return True
 
 
-def separating_planes(verts: np.ndarray, rot: np.ndarray, points: np.ndarray,
-                      margin: float) -> np.ndarray:
-    """(K, 4) planes (n, d), n a unit vector, with the solid of ``verts`` in n.x <= d and
-    every one of ``points`` at n.x >= d + ``margin``, among the world axes, the solid's own
-    axes (the columns of ``rot``) and the direction between the two's centres, both ways."""
-    dirs = [np.eye(3), rot.T, (points.mean(0) - verts.mean(0))[None, :]]
-    cand = np.vstack(dirs)
-    cand = cand[np.linalg.norm(cand, axis=1) > 1e-12]
-    cand = cand / np.linalg.norm(cand, axis=1)[:, None]
-    cand = np.vstack([cand, -cand])
-    d = (verts @ cand.T).max(0)
-    ok = (points @ cand.T).min(0) >= d + margin
-    return np.column_stack([cand[ok], d[ok]])
+#: Vertices a convex solid keeps for its image (a subset spans a polyhedron inside it).
+SOLID_VERTICES = 48
 
 
-class FaceSet:
-    """The occluders of a scene for one object: triangles (M, 3, 3) with their unit
-    ``normals``, boxes ``lo``/``hi``, ``spheres`` (M, 4: a stand-in's bounding sphere, used
-    only from outside it; radius -1 for a face the renderer draws itself), ``owner`` (the
-    convex solid a face belongs to, or -1) and ``behind`` (whether the object lies behind the
-    face's own plane); the convex solids' vertices (``solid_verts`` from ``solid_start[k]``),
-    boxes, bounding spheres (as ``spheres``) and separating planes (``planes`` (K, P, 4),
-    ``nplanes``)."""
+def spread_subset(v: np.ndarray, k: int) -> np.ndarray:
+    """``k`` of the points ``v`` spread over them (farthest-point sampling from the first), or
+    all of them when there are no more than ``k``."""
+    if len(v) <= k:
+        return v
+    chosen = [0]
+    d = np.linalg.norm(v - v[0], axis=1)
+    for _ in range(k - 1):
+        i = int(np.argmax(d))
+        chosen.append(i)
+        d = np.minimum(d, np.linalg.norm(v - v[i], axis=1))
+    return v[chosen]
 
-    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, exclude_body: int,
-                 points: np.ndarray, behind_m: float) -> None:
-        tris, spheres, owners, behind = [], [], [], []
-        verts, planes, solid_spheres = [], [], []
-        for g in range(model.ngeom):
-            if model.geom_bodyid[g] == exclude_body or not drawn_opaque(model, g):
+
+def _cat(parts: list[np.ndarray], shape: tuple[int, ...], dtype=float) -> np.ndarray:
+    return np.ascontiguousarray(np.concatenate(parts) if parts else np.zeros(shape, dtype))
+
+
+class SceneFaces:
+    """The faces some geoms of a scene are drawn with (those of ``geoms`` drawn opaque), what
+    does not depend on the object they may hide: triangles (M, 3, 3), unit ``normals``, boxes
+    ``lo``/``hi``, ``spheres`` (M, 4: a stand-in's bounding sphere, used only from outside it;
+    radius -1 for a face the renderer draws itself), ``owner`` (its convex solid, or -1); the
+    convex solids' image vertices (at most :data:`SOLID_VERTICES` of theirs, spread over them:
+    their hull lies inside the solid, so its image inside the solid's; ``solid_verts`` from
+    ``solid_start[k]``), boxes (of every vertex), bounding spheres and their extents along 12
+    directions (the world's axes and their own, both ways: ``dirs``, ``support``), from which
+    :class:`FaceSet` finds the planes that separate each from an object. Keep one for the
+    geoms that stay put (a room's) and make one for the objects of each scene."""
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, geoms) -> None:
+        tris, spheres, owners = [], [], []
+        verts, slo, shi, ssph, dirs, support = [], [], [], [], [], []
+        for g in geoms:
+            if not drawn_opaque(model, g):
                 continue
             t = geom_triangles(model, data, g)
             if t is None or not len(t):
@@ -215,56 +212,99 @@ class FaceSet:
             n = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
             length = np.linalg.norm(n, axis=1)
             keep = length > 1e-12  # degenerate triangles cover nothing
-            t, n = np.ascontiguousarray(t[keep]), np.ascontiguousarray(n[keep] / length[keep, None])
+            t = np.ascontiguousarray(t[keep])
+            n = np.ascontiguousarray(n[keep] / length[keep, None])
             if not len(t):
                 continue
-            b = behind_planes(t, n, points, behind_m)
-            v = np.unique(t.reshape(-1, 3), axis=0)
-            kind = int(model.geom_type[g])
-            solid = -1
-            if kind != mujoco.mjtGeom.mjGEOM_MESH or is_convex(t, n, v, 1e-9 * (
-                    1.0 + float(np.abs(v).max()))):
-                p = separating_planes(v, data.geom_xmat[g].reshape(3, 3), points, behind_m)
             r = float(model.geom_rbound[g]) if _round(model, g) else -1.0
-            if kind != mujoco.mjtGeom.mjGEOM_MESH or is_convex(t, n, v, 1e-9 * (
-                    1.0 + float(np.abs(v).max()))):
-                p = separating_planes(v, data.geom_xmat[g].reshape(3, 3), points, behind_m)
-                if len(p):
-                    solid = len(verts)
-                    verts.append(v)
-                    planes.append(p)
-                    solid_spheres.append([*data.geom_xpos[g], r])
-            if solid < 0 and not b.any():
-                continue  # hides nothing of the object
+            solid = -1
+            v = np.unique(t.reshape(-1, 3), axis=0)
+            if int(model.geom_type[g]) != mujoco.mjtGeom.mjGEOM_MESH or is_convex(
+                    t, n, v, 1e-9 * (1.0 + float(np.abs(v).max()))):
+                solid = len(verts)
+                rot = data.geom_xmat[g].reshape(3, 3)
+                dd = np.vstack([np.eye(3), rot.T])
+                dd = np.vstack([dd, -dd])
+                verts.append(spread_subset(v, SOLID_VERTICES))
+                slo.append(v.min(0))
+                shi.append(v.max(0))
+                ssph.append([*data.geom_xpos[g], r])
+                dirs.append(dd)
+                support.append((v @ dd.T).max(0))
             tris.append(t)
             spheres.append(np.tile([*data.geom_xpos[g], r], (len(t), 1)))
             owners.append(np.full(len(t), solid, np.int64))
-            behind.append(b)
-        cat = (lambda xs, shape: np.ascontiguousarray(np.concatenate(xs)) if xs
-               else np.zeros(shape))
-        self.triangles = cat(tris, (0, 3, 3))
+        self.triangles = _cat(tris, (0, 3, 3))
         e = np.cross(self.triangles[:, 1] - self.triangles[:, 0],
                      self.triangles[:, 2] - self.triangles[:, 0])
-        self.normals = np.ascontiguousarray(e / np.maximum(np.linalg.norm(e, axis=1), 1e-300)[
-            :, None])
+        self.normals = np.ascontiguousarray(
+            e / np.maximum(np.linalg.norm(e, axis=1), 1e-300)[:, None])
         self.lo = np.ascontiguousarray(self.triangles.min(1)) if len(tris) else np.zeros((0, 3))
         self.hi = np.ascontiguousarray(self.triangles.max(1)) if len(tris) else np.zeros((0, 3))
-        self.spheres = cat(spheres, (0, 4))
-        self.owner = np.ascontiguousarray(np.concatenate(owners)) if owners \
-            else np.zeros(0, np.int64)
-        self.behind = np.ascontiguousarray(np.concatenate(behind)) if behind \
-            else np.zeros(0, np.bool_)
-        self.solid_verts = cat(verts, (0, 3))
+        self.spheres = _cat(spheres, (0, 4))
+        self.owner = _cat(owners, (0,), np.int64)
+        self.solid_verts = _cat(verts, (0, 3))
         self.solid_start = np.cumsum([0] + [len(v) for v in verts]).astype(np.int64)
-        most = max((len(p) for p in planes), default=1)
-        self.planes = np.zeros((len(planes), most, 4))
-        self.nplanes = np.array([len(p) for p in planes], np.int64)
-        for k, p in enumerate(planes):
-            self.planes[k, :len(p)] = p
-        self.solid_spheres = np.array(solid_spheres, float).reshape(-1, 4)
-        self.solid_lo = np.array([v.min(0) for v in verts]).reshape(-1, 3)
-        self.solid_hi = np.array([v.max(0) for v in verts]).reshape(-1, 3)
+        self.solid_lo, self.solid_hi = _cat([np.atleast_2d(x) for x in slo], (0, 3)), \
+            _cat([np.atleast_2d(x) for x in shi], (0, 3))
+        self.solid_spheres = np.array(ssph, float).reshape(-1, 4)
+        self.dirs = np.array(dirs, float).reshape(-1, 12, 3)
+        self.support = np.array(support, float).reshape(-1, 12)
 
 
-__all__ = ["DRAWN_GROUPS", "FaceSet", "behind_planes", "drawn_opaque", "geom_points",
-           "geom_triangles", "inner_ratio", "is_convex", "separating_planes"]
+class FaceSet:
+    """The occluders of one object in a scene made of ``parts`` (:class:`SceneFaces`): the
+    faces with ``behind`` (the object lies at least ``behind_m`` behind the face's own plane)
+    or of a solid with separating ``planes`` (K, 12, 4: (n, d), the solid in n.x <= d and the
+    object at n.x >= d + ``behind_m``; ``nplanes`` of them), the rest left out. ``points``
+    (N, 3): points whose hull holds the object as drawn."""
+
+    def __init__(self, parts: list[SceneFaces], points: np.ndarray, behind_m: float) -> None:
+        fields = ("triangles", "normals", "lo", "hi", "spheres", "owner", "behind")
+        keep: dict[str, list] = {f: [] for f in fields}
+        solids: dict[str, list] = {f: [] for f in ("verts", "lo", "hi", "sph", "planes")}
+        starts, n_solids = [0], 0
+        for part in parts:
+            behind = behind_planes(part.triangles, part.normals, points, behind_m)
+            # each solid's separating planes
+            reach = (points @ part.dirs.reshape(-1, 3).T).min(0).reshape(-1, 12) \
+                if len(part.dirs) else np.zeros((0, 12))
+            ok = reach >= part.support + behind_m
+            number = np.full(len(ok), -1, np.int64)
+            for k in np.flatnonzero(ok.any(1)):
+                number[k] = n_solids
+                n_solids += 1
+                planes = np.zeros((12, 4))
+                planes[:ok[k].sum(), :3] = part.dirs[k][ok[k]]
+                planes[:ok[k].sum(), 3] = part.support[k][ok[k]]
+                solids["planes"].append((int(ok[k].sum()), planes))
+                v = part.solid_verts[part.solid_start[k]:part.solid_start[k + 1]]
+                solids["verts"].append(v)
+                starts.append(starts[-1] + len(v))
+                solids["lo"].append(part.solid_lo[k])
+                solids["hi"].append(part.solid_hi[k])
+                solids["sph"].append(part.solid_spheres[k])
+            owner = np.where(part.owner >= 0, number[np.maximum(part.owner, 0)], -1) \
+                if len(number) else np.full(len(part.owner), -1, np.int64)
+            use = behind | (owner >= 0)
+            for f, x in (("triangles", part.triangles), ("normals", part.normals),
+                         ("lo", part.lo), ("hi", part.hi), ("spheres", part.spheres),
+                         ("owner", owner), ("behind", behind)):
+                keep[f].append(x[use])
+        self.triangles = _cat(keep["triangles"], (0, 3, 3))
+        self.normals = _cat(keep["normals"], (0, 3))
+        self.lo, self.hi = _cat(keep["lo"], (0, 3)), _cat(keep["hi"], (0, 3))
+        self.spheres = _cat(keep["spheres"], (0, 4))
+        self.owner = _cat(keep["owner"], (0,), np.int64)
+        self.behind = _cat(keep["behind"], (0,), np.bool_)
+        self.solid_verts = _cat(solids["verts"], (0, 3))
+        self.solid_start = np.array(starts, np.int64)
+        self.solid_lo = np.array(solids["lo"], float).reshape(-1, 3)
+        self.solid_hi = np.array(solids["hi"], float).reshape(-1, 3)
+        self.solid_spheres = np.array(solids["sph"], float).reshape(-1, 4)
+        self.nplanes = np.array([n for n, _ in solids["planes"]], np.int64)
+        self.planes = np.array([p for _, p in solids["planes"]], float).reshape(-1, 12, 4)
+
+
+__all__ = ["DRAWN_GROUPS", "FaceSet", "SceneFaces", "behind_planes", "drawn_opaque",
+           "geom_points", "geom_triangles", "inner_ratio", "is_convex", "spread_subset"]

@@ -36,8 +36,8 @@ import mujoco
 import numpy as np
 from numba import njit
 
-from fallgen.vision.cover import MAX_VERTICES, clip, convex_hull, subtract
-from fallgen.vision.faces import DRAWN_GROUPS, FaceSet
+from fallgen.vision.cover import MAX_VERTICES, area2, clip, convex_hull, subtract
+from fallgen.vision.faces import DRAWN_GROUPS, FaceSet, SceneFaces
 
 #: How far (m) the object must lie behind an occluding face's plane: far beyond the depth
 #: buffer's resolution (24 bits from a near plane of ~5 cm: ~0.03 mm at 5 m).
@@ -49,6 +49,9 @@ MARGIN = 1e-3
 SLACK_PX = 0.2
 #: Pieces the subtraction may keep before it gives up (then every view is rendered).
 MAX_PIECES = 8192
+#: Steps (a piece looked at, a clip) the subtraction may take for one eye before it stops
+#: and keeps what is left (a looser bound: more views rendered).
+BUDGET = 20_000
 #: Area (tangent units squared) below which a leftover piece is rounding, not a gap: a pixel
 #: is about 4e-5.
 DUST = 1e-14
@@ -173,23 +176,23 @@ def _project_faces(tris, normals, lo, hi, solids, owner, behind, used, eye, corn
 
 
 class Occluders:
-    """The opaque faces of a static scene that can hide an object (of every drawn, opaque
-    geom but those of ``exclude_body``), for :meth:`look`. ``points`` (N, 3): points whose
-    hull holds the object as drawn (e.g. the vertices of its meshes' hull)."""
+    """The opaque faces of a static scene that can hide an object, for :meth:`look`:
+    ``parts`` (:class:`fallgen.vision.faces.SceneFaces`, every drawn geom but the object's);
+    ``points`` (N, 3): points whose hull holds the object as drawn (e.g. the vertices of its
+    meshes' hull); ``near_m``: twice the renderer's near clipping distance (see
+    :func:`near_distance`)."""
 
-    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, exclude_body: int,
-                 points: np.ndarray, behind_m: float = BEHIND_M) -> None:
+    def __init__(self, parts: list[SceneFaces], points: np.ndarray, near_m: float,
+                 behind_m: float = BEHIND_M) -> None:
         """``behind_m``: how far beyond a face's or a separating plane the object must lie
         (:data:`BEHIND_M`; tests pass a wrong value to see the proof fail)."""
-        self.behind_m = behind_m
+        self.behind_m, self.near_m = behind_m, near_m
         self.points = np.ascontiguousarray(points, float)
         lo, hi = self.points.min(0), self.points.max(0)
         #: the corners of the points' box: where the object lies
         self.corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
                                  for z in (lo[2], hi[2])])
-        self.faces = FaceSet(model, data, exclude_body, self.points, behind_m)
-        #: twice the renderer's near clipping distance (a fraction of the model's extent)
-        self.near_m = 2 * float(model.vis.map.znear) * float(model.stat.extent)
+        self.faces = FaceSet(parts, self.points, behind_m)
 
     def look(self, eye: np.ndarray) -> Sight:
         """What of the object can show from ``eye`` (3,)."""
@@ -254,6 +257,12 @@ class Sight:
                         bool)
 
 
+def near_distance(model: mujoco.MjModel) -> float:
+    """Twice the renderer's near clipping distance for ``model`` (a fraction of its extent):
+    nearer than that to the eye, a face may be clipped away."""
+    return 2 * float(model.vis.map.znear) * float(model.stat.extent)
+
+
 @njit(cache=True)
 def _frame(eye, corners):
     """The gnomonic frame about the direction from ``eye`` to the corners' mean: (w, p, q)."""
@@ -311,7 +320,13 @@ def _leftover(tris, normals, lo, hi, spheres, owner, behind, sverts, sstart, slo
                         near, ox, oy, sizes, used)
     k = _project_faces(tris, normals, lo, hi, spheres, owner, behind, used, eye, corners, w, p,
                        q, box, near, ox, oy, sizes, k)
-    return subtract(hx, hy, hn, ox, oy, sizes, k, DUST, MAX_PIECES)
+    # the largest images first: fewer pieces to carry through the rest
+    areas = np.empty(k)
+    for i in range(k):
+        areas[i] = -abs(area2(ox[i], oy[i], sizes[i]))
+    order = np.argsort(areas)
+    ox, oy, sizes = ox[order], oy[order], sizes[order]
+    return subtract(hx, hy, hn, ox, oy, sizes, k, DUST, MAX_PIECES, BUDGET)
 
 
 @njit(cache=True)
@@ -364,5 +379,5 @@ def _count_pixels(xs, ys, ns, w, p, q, yaw, tilt, size, scale, slack, enough):
     return total
 
 
-__all__ = ["DRAWN_GROUPS", "Occluders", "Sight", "BEHIND_M",
+__all__ = ["DRAWN_GROUPS", "Occluders", "Sight", "BEHIND_M", "near_distance",
            "MARGIN", "SLACK_PX"]
