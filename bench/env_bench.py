@@ -21,7 +21,14 @@ when missing; ``--dataset build/full`` for the paper-size rooms):
    and the main process compute, and each worker's peak resident memory (goal < 1 GB);
 3. against the original: TDW's Magnebot environment ran ~4-7 actions a second
    (``shared/design/benchmark.md``; it needs Unity and a display, not runnable here), so the
-   ratio is to that published figure, named as such.
+   ratio is to that published figure, named as such;
+4. with ``--compare-shadow-reuse``: rgb + depth steps per second with the views made as they
+   were (the light's shadow map drawn again for every colour pass, every geom drawn, depth and
+   segmentation from a second pass) and as they are (the map of the still scene kept, the
+   geoms outside the view left out, depth read from the colour pass: see
+   :mod:`fallgen.vision.gl`), alternating in this process (``--repeats`` pairs, the same
+   seeded walks), and whether both gave the same observations (a sha256 of every step's rgb
+   and depth).
 """
 
 from __future__ import annotations
@@ -52,35 +59,59 @@ def _dataset(path: Path) -> Path:
     return path
 
 
-def walk(env, steps: int, seed: int) -> dict:
-    """``steps`` env steps of a random walk; seconds spent in step() and in reset()."""
+def walk(env, steps: int, seed: int, on_obs=None) -> dict:
+    """``steps`` env steps of a random walk; seconds spent in step() and in reset().
+    ``on_obs(obs)`` sees every observation (outside the times)."""
     import numpy as np
 
     rng = np.random.default_rng(seed)
+    see = on_obs or (lambda obs: None)
     t_step = t_reset = 0.0
     n = resets = 0
     t = time.perf_counter()
-    env.reset(seed=seed)
+    obs, _ = env.reset(seed=seed)
     t_reset += time.perf_counter() - t
+    see(obs)
     resets += 1
     while n < steps:
         a = int(rng.integers(5))
         t = time.perf_counter()
-        _, _, term, trunc, _ = env.step(a)
+        obs, _, term, trunc, _ = env.step(a)
         t_step += time.perf_counter() - t
+        see(obs)
         n += 1
         if term or trunc:
             t = time.perf_counter()
-            env.reset()
+            obs, _ = env.reset()
             t_reset += time.perf_counter() - t
+            see(obs)
             resets += 1
     return {"steps": n, "step_s": t_step, "resets": resets, "reset_s": t_reset}
 
 
-def one_process(dataset: Path, sensors: tuple[str, ...], steps: int, cache: int) -> dict:
+def one_process(dataset: Path, sensors: tuple[str, ...], steps: int, cache: int,
+                shortcuts: bool = True, digest: bool = False) -> dict:
+    """``shortcuts=False``: views made as before the shadow map was kept (see
+    :func:`shadow_reuse`); ``digest``: a sha256 of every observation's arrays as well."""
+    import hashlib
+
     from fallgen.env import FallenObjectsEnv
 
     env = FallenObjectsEnv(dataset, sensors=sensors, view_cache=cache, order="shuffle")
+    env._colour_depth = env._colour_depth and shortcuts
+    load = env._load
+    h = hashlib.sha256()
+
+    def loaded(episode_id):  # every episode's new camera, its colour draws set
+        load(episode_id)
+        frames = env._room.camera.frames
+        frames.reuse_shadow_map = frames.cull_colour = shortcuts
+
+    def hashed(obs):
+        for k in sorted(obs):
+            h.update(obs[k].tobytes())
+
+    env._load = loaded
     hits = {"n": 0, "hit": 0}
     view = env._view
 
@@ -93,14 +124,36 @@ def one_process(dataset: Path, sensors: tuple[str, ...], steps: int, cache: int)
     env._view = counted
     try:
         walk(env, 50, 99)  # warm: GL context, shaders, first rooms
-        r = walk(env, steps, 1)
+        r = walk(env, steps, 1, hashed if digest else None)
     finally:
         env.close()
-    return {"steps_per_s": round(r["steps"] / r["step_s"], 1),
-            "ms_per_step": round(1e3 * r["step_s"] / r["steps"], 2),
-            "ms_per_reset": round(1e3 * r["reset_s"] / r["resets"], 1),
-            "steps_per_s_with_resets": round(r["steps"] / (r["step_s"] + r["reset_s"]), 1),
-            "cache_served": round(hits["hit"] / max(hits["n"], 1), 3)}
+    out = {"steps_per_s": round(r["steps"] / r["step_s"], 1),
+           "ms_per_step": round(1e3 * r["step_s"] / r["steps"], 2),
+           "ms_per_reset": round(1e3 * r["reset_s"] / r["resets"], 1),
+           "steps_per_s_with_resets": round(r["steps"] / (r["step_s"] + r["reset_s"]), 1),
+           "cache_served": round(hits["hit"] / max(hits["n"], 1), 3)}
+    if digest:
+        out["sha256"] = h.hexdigest()
+    return out
+
+
+def shadow_reuse(dataset: Path, steps: int, repeats: int) -> dict:
+    """rgb + depth steps per second, the views made as before (``before``: the shadow map
+    drawn for every colour pass, every geom drawn, depth from a second pass) and with the
+    shortcuts (``after``), alternating
+    ``repeats`` pairs (before, after, then after, before, ...) on the same seeded walks; the
+    observations' digests must agree."""
+    runs: dict[str, list[dict]] = {"before": [], "after": []}
+    for k in range(repeats):
+        for name in (("before", "after") if k % 2 == 0 else ("after", "before")):
+            runs[name].append(one_process(dataset, RGB_DEPTH, steps, 64,
+                                          shortcuts=name == "after", digest=True))
+    mean = {n: round(sum(r["steps_per_s"] for r in v) / len(v), 1) for n, v in runs.items()}
+    return {"before_steps_per_s": mean["before"], "after_steps_per_s": mean["after"],
+            "speedup": round(mean["after"] / mean["before"], 2),
+            "pairs": [[b["steps_per_s"], a["steps_per_s"]]
+                      for b, a in zip(runs["before"], runs["after"])],
+            "same_observations": len({r["sha256"] for v in runs.values() for r in v}) == 1}
 
 
 def _peak_mb(pid: int) -> float:
@@ -176,6 +229,8 @@ def main() -> None:
     ap.add_argument("--vec-steps", type=int, default=1200,
                     help="steps of each vector run, all environments together")
     ap.add_argument("--repeats", type=int, default=4)
+    ap.add_argument("--compare-shadow-reuse", action="store_true",
+                    help="only the colour draws before and after the shadow map was kept")
     a = ap.parse_args()
     import fallgen  # noqa: F401  (BLAS threads, EGL, before numpy)
     import mujoco
@@ -184,6 +239,10 @@ def main() -> None:
     out: dict = {"dataset": str(ds), "machine": {"cpu": cpu_model(), "cores": os.cpu_count(),
                                                    "python": platform.python_version(),
                                                    "mujoco": mujoco.__version__}}
+    if a.compare_shadow_reuse:
+        out["shadow_reuse"] = shadow_reuse(ds, a.steps, a.repeats)
+        print(json.dumps(out))
+        return
     for name, sensors in (("rgb_depth", RGB_DEPTH), ("basic", BASIC), ("oracles", ORACLES)):
         out[name] = one_process(ds, sensors, a.steps, 64)
         out[name + "_no_cache"] = one_process(ds, sensors, a.steps // 2, 0)

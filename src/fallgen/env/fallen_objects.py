@@ -21,9 +21,14 @@ Observations (a ``Dict``; ``sensors`` chooses which; fixed shapes):
   expert's next action from the current pose: the first action of the shortest plan, the
   dataset's own plan while the agent follows it; :data:`NO_PLAN` if none exists).
 
-Rendering: the colour pass and the depth-and-segmentation pass are separate renders (``depth``
-comes from the latter, exact to float32), each made only when a sensor asks for it, and kept in a
-bounded per-episode cache keyed by the pose (turning in place or coming back renders nothing).
+Rendering: the colour pass and the depth-and-segmentation pass are separate renders, each made
+only when a sensor asks for it, and kept in a bounded per-episode cache keyed by the pose
+(turning in place or coming back renders nothing). ``depth`` comes from the latter, exact to
+float32; with ``rgb`` and without ``category_seg`` it is read from the colour pass's depth
+buffer instead (the same values: :attr:`fallgen.vision.gl.SceneFrames.colour_depth_exact`),
+and whether the object is in view is then decided as the judge does (a segmentation render
+only where the object can show). A colour pass keeps the light's shadow map of the room, which
+stands still, for the episode (:mod:`fallgen.vision.gl`).
 Neither pass is multisampled (``OFFSCREEN_SAMPLES = 0`` in :mod:`fallgen.vision.camera`: on a
 CPU renderer 4x multisampling nearly doubled a view's cost), so polygon edges in ``rgb`` are not
 anti-aliased.
@@ -147,6 +152,8 @@ class FallenObjectsEnv(gym.Env):
         rgb, depth = "rgb" in sensors, "depth" in sensors or "category_seg" in sensors
         #: the render passes the sensors need (EgoCamera.render's ``what``)
         self._passes = "all" if rgb and depth else "rgb" if rgb else "depth" if depth else None
+        #: rgb and depth without segmentation: both from one colour pass where it is exact
+        self._colour_depth = rgb and "depth" in sensors and "category_seg" not in sensors
         self._gl = None
         self._room = None
         self._room_samples: OrderedDict[str, np.ndarray] = OrderedDict()
@@ -317,7 +324,12 @@ class FallenObjectsEnv(gym.Env):
         if self._passes is None:
             return View(np.zeros((0, 0, 3), np.uint8), np.zeros((0, 0), np.float32),
                         np.zeros((0, 0), np.int16), np.zeros((0, 0), np.int16), cam.instances)
-        v = cam.render(data, pose, self._passes)
+        if self._colour_depth and cam.frames.colour_depth_exact:
+            rgb, depth = cam.frames.rgb_and_depth(data, cam.camera(pose))
+            none = np.zeros((0, 0), np.int16)
+            v = View(rgb, depth, none, none, cam.instances)
+        else:
+            v = cam.render(data, pose, self._passes)
         if self._view_cache_size:
             self._views[key] = v
             while len(self._views) > self._view_cache_size:
