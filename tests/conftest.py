@@ -59,7 +59,7 @@ timeout_s = 6.0
 [generate]
 episodes = {{ train = 2, validation = 2, test = 2 }}
 frames = "first"
-hrtf = ""
+hrtf = "sadie_ku100"
 audio_s = 1.0
 image_source_order = 3
 ambient_noise_db_a = 30.0

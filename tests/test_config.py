@@ -105,8 +105,10 @@ def test_out_must_be_a_directory_of_its_own(tmp_path):
 
 
 def test_hrtf_file_and_utf8(tmp_path):
-    e = _bad(tmp_path, 'hrtf = ""', f'hrtf = "{tmp_path / "none.sofa"}"')
-    assert e.field == "generate.hrtf" and "no such file" in e.message
+    e = _bad(tmp_path, 'hrtf = "sadie_ku100"', f'hrtf = "{tmp_path / "none.sofa"}"')
+    assert e.field == "generate.hrtf" and "nor a SOFA file" in e.message
+    e = _bad(tmp_path, 'hrtf = "sadie_ku100"', 'hrtf = ""')
+    assert e.field == "generate.hrtf" and "sphere" in e.message
     p = tmp_path / "latin1.toml"
     p.write_bytes(SMOKE.read_text().replace("# Tiny build", "# Tiny build \xe9t\xe9").encode(
         "latin-1"))

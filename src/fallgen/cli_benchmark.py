@@ -125,7 +125,7 @@ def _check_audio_model(path: Path, ds) -> None:
     if ds is not None:
         rows = ds.rows(ds.splits[0]) if ds.splits else []
         if rows:
-            check_features(ds, rows[:1], model.features, path)
+            check_features(ds, rows[:1], model.features, path, model.hrtf)
 
 
 def register(app: typer.Typer, console: Console) -> None:
@@ -420,7 +420,7 @@ def register(app: typer.Typer, console: Console) -> None:
         ds = _open(dataset)
         model = AudioModel.load(model_path)
         rows = _rows(ds, split, room_kind)
-        check_features(ds, rows, model.features, model_path)
+        check_features(ds, rows, model.features, model_path, model.hrtf)
         train_rows = _rows(ds, train_split, None, "--train-split")
         with _bar("features") as bar:
             task = bar.add_task("", total=len(rows))

@@ -36,7 +36,9 @@ class GenerateConfig:
     #: episodes per split (train, validation, test)
     episodes: tuple[int, int, int] = (6000, 1000, 1000)
     frames: str = "first"  # "first" or "trajectory"
-    hrtf: str = ""  # a SOFA file; "" = the spherical-head model
+    #: the head heard with: "sadie_ku100" (measured, packaged), "sphere" (the spherical-head
+    #: model) or a SOFA file (fallgen.audio.heads)
+    hrtf: str = "sadie_ku100"
     audio_s: float = 2.0
     image_source_order: int = 6
     episodes_per_shard: int = 500
@@ -149,8 +151,9 @@ def _generate(f: Fields) -> GenerateConfig:
                       "textured views)")
     if sum(g.episodes) == 0:
         raise e.error(SPLITS[0], "at least one episode is needed")
-    if g.hrtf and not Path(g.hrtf).is_file():
-        raise f.error("hrtf", f"no such file: {g.hrtf}")
+    if g.hrtf not in ("sadie_ku100", "sphere") and not Path(g.hrtf).is_file():
+        raise f.error("hrtf", f"{g.hrtf!r}: not \"sadie_ku100\" (the measured head), "
+                      "\"sphere\" (the spherical-head model) nor a SOFA file")
     f.reject_unknown()
     return g
 

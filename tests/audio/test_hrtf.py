@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from scipy.signal import correlate, correlation_lags, resample_poly
 
+from fallgen.audio.heads import PACKAGED
 from fallgen.audio.hrtf import (
     MARGIN_SAMPLES,
     Hrtf,
@@ -21,7 +22,7 @@ from fallgen.audio.hrtf import (
 )
 from fallgen.errors import InputError
 
-SOFA = Path(__file__).resolve().parents[3] / "shared" / "data" / "hrtf" / "sadie_ku100_48k.sofa"
+SOFA = PACKAGED  # the measured head shipped with fallgen
 needs_sofa = pytest.mark.skipif(not SOFA.is_file(), reason=f"test HRTF {SOFA} is not available")
 
 

@@ -156,7 +156,7 @@ def write_card(root: Path, config_text: str, root_seed: int, versions: dict[str,
               "from the contacts (impact speed sets the loudness), spatialises it with "
               "image-source early reflections, the furniture's own first reflections, "
               "diffraction around furniture in the way, a late reverberation at the furnished "
-              "room's RT60 (`room_rt60_s`) and an HRTF, "
+              "room's RT60 (`room_rt60_s`) and an HRTF (" + _head(settings) + "), "
               "renders the first view with MuJoCo, and plans the expert over the robot's own "
               "action lattice, checked by replaying its actions.", "",
               f"Root seed {root_seed}; the episode's random generator is "
@@ -164,9 +164,32 @@ def write_card(root: Path, config_text: str, root_seed: int, versions: dict[str,
               "episode is reproducible on its own and the files do not depend on the number of "
               "workers. Versions:", ""]
     lines += [f"- {k} {v}" for k, v in sorted(versions.items())]
+    cite = CITATION + ("\n\n" + SADIE_CITATION if _measured(settings) else "")
     lines += ["", "Build configuration:", "", "```toml", config_text.rstrip(), "```", "",
-              "## Citation", "", "```bibtex", CITATION, "```", ""]
+              "## Citation", "", "```bibtex", cite, "```", ""]
     return write_text(root / CARD, "\n".join(lines))
+
+
+#: The measured head's database, to be cited with data made with it (its licence's README).
+SADIE_CITATION = """@inproceedings{kearney2015sadie,
+  title     = {A {HRTF} database for virtual loudspeaker rendering},
+  author    = {Kearney, Gavin and Doyle, Tony},
+  booktitle = {Audio Engineering Society Convention 139},
+  year      = {2015}
+}"""
+
+
+def _measured(settings: dict) -> bool:
+    return settings.get("generate", {}).get("hrtf") == "sadie_ku100"
+
+
+def _head(settings: dict) -> str:
+    spec = settings.get("generate", {}).get("hrtf", "")
+    if spec == "sadie_ku100":
+        return "the SADIE database's Neumann KU100 dummy head, measured, Apache-2.0: cite it"
+    if spec in ("", "sphere"):
+        return "Brown & Duda's spherical-head model"
+    return f"the SOFA file `{spec}`"
 
 
 def _size_category(n: int) -> str:

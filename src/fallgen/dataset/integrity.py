@@ -231,10 +231,12 @@ def build_inputs(world: World, cfg: BuildConfig) -> dict:
     """What every shard of a build depends on (the manifest's ``build``)."""
     import dataclasses
 
+    from fallgen.audio.heads import hrtf_id
+
     g = cfg.generate
     return {**_version_inputs(), **{f"code.{c}": code_digest(c) for c in GENERATION_CODE},
             "config.root_seed": cfg.root_seed, **_config("generate", dataclasses.asdict(g)),
-            "hrtf": sha256(g.hrtf)[:20] if g.hrtf else "", **_world_common(world)}
+            "hrtf": hrtf_id(g.hrtf), **_world_common(world)}
 
 
 def shard_stamp(world: World, common: dict, name: str, plan: list, variants: Iterable[str],
@@ -515,10 +517,10 @@ def preflight(cfg: BuildConfig, world: World, out: Path | None = None,
 
     check_out(Path(out or cfg.out))
     g = cfg.generate
-    if g.hrtf and build:
-        from fallgen.audio.hrtf import load_sofa
+    if build:
+        from fallgen.audio.heads import load_hrtf
 
-        load_sofa(g.hrtf)
+        load_hrtf(g.hrtf)
     import fnmatch
 
     variants = world.variants(cfg.rehearse.rooms)

@@ -82,6 +82,18 @@ class Dataset:
         return dict(self._manifest.get("settings", {}).get("generate", {}))
 
     @property
+    def hrtf(self) -> str | None:
+        """What its clips were heard with (:func:`fallgen.audio.heads.hrtf_id`: ``sphere`` or
+        ``NAME:SHA256``), or None where the manifest does not say."""
+        built = self._manifest.get("build", {})
+        inputs = built.get("inputs", built) if isinstance(built, dict) else {}
+        hrtf = inputs.get("hrtf") if isinstance(inputs, dict) else None
+        if hrtf:
+            return str(hrtf)
+        spec = self.generate_settings().get("hrtf")
+        return "sphere" if spec in ("", "sphere") else None
+
+    @property
     def root_seed(self) -> int | None:
         """The root seed the dataset was built from (its manifest's), or None without one."""
         seed = self._manifest.get("root_seed")

@@ -197,7 +197,7 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
     scored = (("all", "test", None), ("all", "kitchen", "kitchen"), ("all", "study", "study"),
               ("kitchen", "study", "study"), ("study", "kitchen", "kitchen"))
     for name, m in loaded.items():
-        check_features(ds, test_rows, m.features, models[name])
+        check_features(ds, test_rows, m.features, models[name], m.hrtf)
     X_test = None
     for name, where, kind in scored:
         key = f"{name}_on_{where}"

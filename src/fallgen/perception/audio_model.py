@@ -46,9 +46,14 @@ def dataset_features(ds, rows: Sequence[dict]) -> AudioFeatures:
     return AudioFeatures(sample_rate=int(rows[0]["sample_rate"]), clip_samples=int(shape[-1]))
 
 
-def check_features(ds, rows: Sequence[dict], features: AudioFeatures, model_path) -> None:
+def check_features(ds, rows: Sequence[dict], features: AudioFeatures, model_path,
+                   hrtf: str | None = None) -> None:
     """A one-line error (:class:`InputError`, naming the model file and the field) when
-    ``ds``'s clips are not what ``features`` were made for."""
+    ``ds``'s clips are not what ``features`` were made for, or were heard with another head
+    than ``hrtf`` (the model's training data's, :attr:`AudioModel.hrtf`; None: not checked)."""
+    if hrtf is not None and ds.hrtf is not None and ds.hrtf != hrtf:
+        raise InputError(model_path, "meta.hrtf", f"the model was trained on clips heard with "
+                         f"{hrtf}; {ds.root} was heard with {ds.hrtf}")
     have = dataset_features(ds, rows)
     for name in ("sample_rate", "clip_samples"):
         if getattr(have, name) != getattr(features, name):
@@ -159,7 +164,12 @@ class AudioModel:
                 true = _positions(Y[ok])
                 err = float(np.median(np.linalg.norm(est - true, axis=1)))
         return AudioModel(features, cat, mat, reg, dist, manifest_sha256(ds.root) or "", len(rows),
-                          err, {"seed": seed, "trees": trees})
+                          err, {"seed": seed, "trees": trees, "hrtf": ds.hrtf})
+
+    @property
+    def hrtf(self) -> str | None:
+        """What its training clips were heard with (None: not recorded)."""
+        return self.meta.get("hrtf")
 
     def predict_matrix(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(category probabilities (N, C), material probabilities (N, M), places (N, 2):

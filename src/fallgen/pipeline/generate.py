@@ -33,7 +33,7 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
-from fallgen.audio.hrtf import load_sofa, spherical_head
+from fallgen.audio.heads import load_hrtf
 from fallgen.audio.mix import Binaural
 from fallgen.audio.room import RirSettings
 from fallgen.config import SPLITS, BuildConfig
@@ -155,7 +155,7 @@ def shard_jobs(planned: list[PlannedEpisode], per_shard: int) -> list[ShardJob]:
 
 def _maker(world: World, cfg: BuildConfig) -> EpisodeMaker:
     g = cfg.generate
-    hrtf = load_sofa(g.hrtf) if g.hrtf else spherical_head()
+    hrtf = load_hrtf(g.hrtf)
     return EpisodeMaker(world, Binaural(hrtf),
                         rir=RirSettings(g.image_source_order, 44100, g.audio_s),
                         noise_db_a=g.ambient_noise_db_a,
