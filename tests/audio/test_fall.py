@@ -112,6 +112,94 @@ def test_higher_fall_is_louder(world, renderer, drop_event):
     assert refs[1] > 4 * refs[0]  # 6 dB at least
 
 
+def johnson_contact_time(e1, nu1, e2, nu2, radius_m, mass_kg, speed_mps) -> float:
+    """Johnson (Contact Mechanics, 1985, sec. 11.4): a Hertz impact of a body of mass m*
+    whose contact has radius R* on a flat of the other material lasts
+    t = 2.87 (m*^2 / (R* E*^2 v))^(1/5), 1/E* = (1 - nu1^2)/E1 + (1 - nu2^2)/E2."""
+    e_star = 1.0 / ((1 - nu1 ** 2) / e1 + (1 - nu2 ** 2) / e2)
+    return 2.87 * (mass_kg ** 2 / (radius_m * e_star ** 2 * speed_mps)) ** 0.2
+
+
+def test_the_contact_is_the_hertz_contact_of_the_effective_mass(world, renderer, monkeypatch):
+    """An impact whose recorded impulse is a third of m v (a knife struck at its tip: the
+    floor meets an effective mass m* = J / v of a third of its mass) is the Hertz contact of
+    m*: the contact spring lasts Johnson's t = 2.87 (m*^2 / (R* E*^2 v))^(1/5) with m*, within
+    0.5 % (his 2.87 is 2.868 rounded), and so does the force on a slab when the bodies' modes
+    are left out (the slab is rigid). The whole mass's Hertz time is (m / m*)^(2/5) = 1.55
+    times longer, a spring (m* / m)^(4/5) = 0.42 times as stiff: rejected."""
+    import fallgen.audio.fall as fall
+    from fallgen.audio.coupling import coupled_impact
+    from fallgen.physics.contacts import ContactEvent
+
+    seen = []
+
+    def rigid(m, v, tc, bodies):  # the modes left out: the contact alone
+        seen.append((m, v, tc))
+        return coupled_impact(m, v, tc, [(w, 0 * b) for w, b in bodies])
+
+    monkeypatch.setattr(fall, "coupled_impact", rigid)
+    mats = world.materials
+    floor = mats.surface("concrete_bare")
+    finish = mats.object(floor.impact_material)
+    knife = world.categories.instance("knife", "table", "metal")
+    target = renderer._object_body(knife, np.zeros(3), np.eye(3))
+    patch = renderer._surface_body(finish, floor, np.zeros(3), np.eye(3))
+    a = target.sounding
+    v, m = 4.4, knife.mass_kg
+    j = m * v / 3.0
+    point = target.sounding.modes.points[int(np.argmin(target.sounding.modes.points[:, 0]))]
+    c = ContactEvent(0.1, "impact", "floor", 0, 1, "metal", finish.name, (0, 0, 0),
+                     tuple(map(float, point)), (0.0, 0.0, 1.0), v, j, 0.0, 0.004, j / 0.004)
+    renderer._add_hits(c, target, patch, np.random.default_rng(0))
+    (m_star, v_seen, tc), = seen
+    assert m_star == pytest.approx(j / v, rel=1e-12) and v_seen == v
+    ref = johnson_contact_time(a.contact_modulus_pa, a.poisson_ratio,
+                               finish.contact_modulus_pa, finish.poisson_ratio,
+                               a.contact_radius_m, m_star, v)
+    whole = johnson_contact_time(a.contact_modulus_pa, a.poisson_ratio,
+                                 finish.contact_modulus_pa, finish.poisson_ratio,
+                                 a.contact_radius_m, m, v)
+    (_, _, t_force), = patch.hits[0].force_pulses()
+    for t in (tc, t_force):
+        assert t == pytest.approx(ref, rel=0.005), (t, ref)
+        assert t != pytest.approx(whole, rel=0.005)
+    assert whole / ref == pytest.approx(3.0 ** 0.4, rel=1e-9)
+    # the force is the impact's: its impulse (1 + e) m* v (the slab takes next to nothing
+    # of the rebound: Zener's zeta ~1e-3)
+    e = min(knife.material.restitution, finish.restitution)
+    assert patch.hits[0].impulse_ns == pytest.approx(j * (1 + e), rel=0.005)
+
+
+def test_a_bouncing_slender_objects_floor_hit_is_the_floor_models(world, renderer,
+                                                                  drop_event):
+    """Over-ear headphones dropped 1 m onto concrete strike it with their headband: its low
+    modes (tens of Hz) throw the contact point off the floor and back, two contacts 45 Hertz
+    times apart. The floor's sound is the floor model's for the impact (a rigid impactor of
+    the effective mass, checked against EN ISO 12354-2 and the ISO tapping machine) within
+    3 dB: two contacts that share the impulse radiate between all of one pulse's energy and
+    the sum of their shares squared (0.5, -3 dB, for halves), as two separate hits do. The
+    force spread over the time to the last parting (one 18 ms pulse, most of it flight) made
+    the floor 25 dB quieter: the check rejects it."""
+    import dataclasses as dc
+
+    e = drop_event(world, "headphone", "over_ear", "plastic_hard", 1.0)
+    one, c = _first_impact(e)
+    assert c.other == "floor"
+    _, others, _ = renderer._bodies(one, np.random.default_rng(0), None)
+    floor = dict(others)["floor"]
+    hit, = floor.hits
+    pulses = hit.force_pulses()
+    parting = hit.modal_state[2]
+    assert len(pulses) >= 2 and parting > 10 * hit.duration_s  # it bounces
+    ref = _floor_reference_j(world, e, c)
+    _check_floor_hit(floor.render(renderer.s), ref, tol_db=3.0)
+    spread = dc.replace(floor, hits=[dc.replace(hit, pulses=None, duration_s=parting)])
+    for wrong in (spread.render(renderer.s), 2 * floor.render(renderer.s),
+                  floor.render(renderer.s) / 2):
+        with pytest.raises(AssertionError):
+            _check_floor_hit(wrong, ref, tol_db=3.0)
+
+
 def _t60(p):
     i = int(np.argmax(np.abs(p)))
     edc = np.cumsum((p[i:] ** 2)[::-1])[::-1]
@@ -278,8 +366,9 @@ def every_category(world, renderer, drop_event):
 
 def _check_share(share, radiated, floor_ref):
     """A fall radiates at most the largest measured share (1e-2, below AUDIO_ENERGY_CEILING)
-    and at least its first impact's floor sound by the floor model, within 6 dB (the coupled
-    contact lends part of it to the object's modes; the Hertz time is the whole body's)."""
+    and at least its first impact's floor sound by the floor model, within 6 dB (a contact
+    that chatters shares its impulse among several pulses, whose floor sound lies below one
+    rigid hit's; the fall's other contacts and the object's own sound come on top)."""
     assert share <= min(MEASURED_SHARE[1], AUDIO_ENERGY_CEILING), share
     assert radiated >= floor_ref / 4, (radiated, floor_ref)
 
@@ -309,8 +398,13 @@ def test_every_category_radiates_a_bounded_share_of_what_its_fall_loses(world, e
 @pytest.mark.xfail(strict=True, reason=(
     "measured hard, heavy impacts radiate 1e-4..1e-2 of what they lose (Koss & Alfredson "
     "1973, Akay 1978); dropped 1 m onto concrete, a 377 g sheet-steel bookend radiates "
-    "2.1e-5, a 145 g steel watch 4.3e-5, a 138 g aluminium iPod 9.7e-6 and a 104 g table "
-    "knife 2.6e-6 (glassware, ceramics and the toaster lie in the range)"))
+    "2.9e-5, a 145 g steel watch 6.9e-5, a 138 g aluminium iPod 2.3e-5 and a 104 g table "
+    "knife 5.0e-6 (glassware, ceramics and the toaster lie in the range). Their thin walls' "
+    "modes take 0.02-0.84 J at the first impact but radiate 2e-7..5e-4 of it: the compact "
+    "monopole + dipole of a sheet's two faces cancel (a 1.5 mm sheet's dipole is its "
+    "thickness times its area, a free plate's is its added mass, (8/3) a^3 for a disk, "
+    "Lamb's Hydrodynamics), and at efficiency 1 their modes alone would radiate 1e-3..2e-1 "
+    "of the fall's loss"))
 def test_hard_heavy_falls_radiate_the_measured_share(every_category):
     """Hard (glass, ceramic, metal), heavy (>= 100 g) bodies falling onto concrete are the
     impacts the measured range describes."""
@@ -410,9 +504,10 @@ def test_a_surface_yields_as_the_large_plate_it_is(world, build_renderer, surfac
                 renderer._add_hits(c, target, patch, np.random.default_rng(k))
             z = patch.point_impedance_n_s_m
             for hit in patch.hits:
-                peak = math.pi * hit.impulse_ns / (2 * hit.duration_s)  # half-sine pulse
-                assert peak <= z * v * (1 + 1e-9), (surface, cid, v, peak, z * v)
-                near = max(near, peak / (z * v))
+                for _, jk, tk in hit.force_pulses():
+                    peak = math.pi * jk / (2 * tk)  # a half-sine pulse's
+                    assert peak <= z * v * (1 + 1e-9), (surface, cid, v, peak, z * v)
+                    near = max(near, peak / (z * v))
     if surface == "glass_window" and rigid:  # the pane's impedance is what holds the force
         assert near > 0.5, near  # (2 / pi of Z v where the pane takes the whole impact)
     if surface == "concrete_bare":  # a slab: the contact's own stiffness sets the force

@@ -317,3 +317,28 @@ def test_rigid_body_noise_energy_never_exceeds_the_instant_stop():
                 for tc in (1e-5, 5e-5, 2e-4, 1e-3, 5e-3)]
     assert max(energies) <= RHO_AIR * vol * dv ** 2 / 4 * 1.02
     assert all(e1 > e2 for e1, e2 in zip(energies, energies[1:]))
+
+
+def test_a_chattering_contacts_force_is_its_pulses():
+    """A contact that chatters (:func:`fallgen.audio.coupling.coupled_impact`'s contact
+    intervals) pushes in one half-sine pulse per interval: each interval of the sampled force
+    carries its pulse's impulse exactly (the force is the impulse each sample receives), the
+    peak is pi J / (2 T) (a half-sine's) within a sample's change, and nothing pushes between
+    the pulses. One pulse spread over the time to the last parting has a fifth of the peak."""
+    from fallgen.audio.impact import force_signal
+
+    fs = 44100
+    pulses = ((0.0, 0.5, 1e-3), (4e-3, 0.3, 6e-4), (9e-3, 0.2, 8e-4))
+    hit = ModalHit(0.01, np.zeros(3), 1.0, 2.4e-3, pulses=pulses)
+    f = force_signal([hit], fs // 10, fs)
+    assert f.sum() / fs == pytest.approx(1.0, rel=1e-12)
+    for k, (t0, j, d) in enumerate(pulses):
+        i0 = int(round((0.01 + t0) * fs))
+        i1 = i0 + int(np.ceil(d * fs)) + 1
+        assert f[i0:i1].sum() / fs == pytest.approx(j, rel=1e-12)
+        peak = math.pi * j / (2 * d)
+        assert f[i0:i1].max() == pytest.approx(peak, rel=0.15)  # samples of 23 us
+        if k + 1 < len(pulses):
+            assert not f[i1:int(round((0.01 + pulses[k + 1][0]) * fs))].any()
+    spread = force_signal([ModalHit(0.01, np.zeros(3), 1.0, 9.8e-3)], fs // 10, fs)
+    assert spread.max() < 0.25 * f.max()

@@ -20,6 +20,15 @@ eigenproblem per impact); the bodies part at the first return of delta to 0, and
 its displacement and velocity from then on. Energy is conserved exactly: what the modes take is
 what the rebound lacks, never more than m* v^2 / 2. Damping during the contact (milliseconds) is
 neglected; a later contact does not see the ringing of an earlier one.
+
+A wall that yields can leave the impactor and meet it again while it rings (a slender body
+struck near its tip, a thin panel): the bodies chatter, touching for short intervals between
+flights, as steel bars dropped at an angle onto a large surface do (Stoianovici & Hurmuzlu
+1996, "A critical study of the applicability of rigid-body collision theory", J. Appl. Mech.
+63(2): the contacts counted electrically; the bar's vibrations and its repeated impacts set
+its rebound). Each contact interval is kept (when it starts, how long it lasts, the impulse it
+delivers): the force is a train of those pulses, not one pulse spread over the time to the last
+parting, which is mostly flight.
 """
 
 from __future__ import annotations
@@ -50,10 +59,13 @@ def ringing_gains(q0: np.ndarray, v0: np.ndarray, omega_d: np.ndarray, decay: np
 
 @dataclass(frozen=True)
 class CoupledImpact:
-    """Each body's modal displacements and velocities when the bodies part (``displacement``,
-    ``velocity``: one (n_i,) array per body, in the order given), how long they touched, the
-    impactor's rebound speed (relative, along the approach: negative is away) and the
-    energies: incoming m* v^2 / 2 and taken by the modes."""
+    """Each body's modal displacements and velocities when the bodies part for good
+    (``displacement``, ``velocity``: one (n_i,) array per body, in the order given), how long
+    they touched (``duration_s``: the sum of the contact intervals), the impactor's rebound
+    speed (relative, along the approach: negative is away), the energies (incoming m* v^2 / 2,
+    taken by the modes), each contact interval (``contacts``: (start s, length s, impulse N s),
+    the impulse m* times the change of the impactor's speed over it) and when the bodies part
+    for good (``parting_s``: the last interval's end, flights included)."""
 
     displacement: tuple[np.ndarray, ...]
     velocity: tuple[np.ndarray, ...]
@@ -61,6 +73,8 @@ class CoupledImpact:
     rebound_mps: float
     incoming_j: float
     vibration_j: float
+    contacts: tuple[tuple[float, float, float], ...] = ()
+    parting_s: float = 0.0
 
     def gains(self, body: int, omega_d: np.ndarray, decay: np.ndarray) -> np.ndarray:
         """Complex gains of one body's modes for free ringing from the parting
@@ -72,7 +86,7 @@ class CoupledImpact:
         return CoupledImpact(tuple(q * factor for q in self.displacement),
                              tuple(v * factor for v in self.velocity), self.duration_s,
                              self.rebound_mps, self.incoming_j,
-                             self.vibration_j * factor * factor)
+                             self.vibration_j * factor * factor, self.contacts, self.parting_s)
 
 
 def coupled_impact(mass_kg: float, speed_mps: float, contact_time_s: float,
@@ -105,6 +119,7 @@ def coupled_impact(mass_kg: float, speed_mps: float, contact_time_s: float,
     x, xd = 0.0, float(speed_mps)
     q, qd = np.zeros(len(omega)), np.zeros(len(omega))
     t_now, touching, t_last = 0.0, True, 0.0
+    contacts: list[tuple[float, float, float]] = []
     for _ in range(_MAX_PHASES):
         if touching:  # in contact: the coupled system's normal modes
             al = phi.T @ np.concatenate([[sm * x], q])
@@ -132,8 +147,10 @@ def coupled_impact(mass_kg: float, speed_mps: float, contact_time_s: float,
             c, sn = np.cos(Om * t_cross), np.sin(Om * t_cross)
             z = phi @ (al * c + be * sn)
             zd = phi @ ((-al * sn + be * c) * Om)
+            xd_in = xd
             x, xd, q, qd = z[0] / sm, zd[0] / sm, z[1:].copy(), zd[1:].copy()
             t_last = t_now + t_cross
+            contacts.append((t_now, t_cross, mass_kg * (xd_in - xd)))
         else:
             c, sn = np.cos(wq * t_cross), np.sin(wq * t_cross)
             x, xd = x + xd * t_cross, xd
@@ -144,8 +161,11 @@ def coupled_impact(mass_kg: float, speed_mps: float, contact_time_s: float,
             break
     vib = 0.5 * float(np.sum(qd * qd + (omega * q) ** 2))
     splits = np.cumsum([len(np.asarray(w_)) for w_, _ in bodies])[:-1]
-    return CoupledImpact(tuple(np.split(q, splits)), tuple(np.split(qd, splits)), float(t_last),
-                         float(xd), 0.5 * mass_kg * speed_mps ** 2, vib)
+    return CoupledImpact(tuple(np.split(q, splits)), tuple(np.split(qd, splits)),
+                         float(sum(c[1] for c in contacts)), float(xd),
+                         0.5 * mass_kg * speed_mps ** 2, vib,
+                         tuple((float(a), float(b_), float(j)) for a, b_, j in contacts),
+                         float(t_last))
 
 
 class _Waves:

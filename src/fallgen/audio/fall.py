@@ -5,13 +5,13 @@ For each contact event of a :class:`~fallgen.physics.events.FallEvent`:
 - an ``impact`` is a contact between the falling object (at its contact point) and the other
   body (floor, wall, furniture part, distractor; at the same world point): the effective mass
   that the recorded compression impulse implies, at the approach speed, meets both bodies'
-  modes through a contact spring as stiff as the Hertz contact of the two materials
-  (:mod:`fallgen.audio.coupling`), and the modes ring from the state it leaves them in: energy
-  is conserved, and the modes never take more than the (1 - e^2) share of the impact's
-  kinetic energy that the pair's restitution e says it loses (a prescribed rigid-body impulse
-  gave a thin steel panel more energy than the whole fall had). The impulse times (1 + e),
-  spread over the time the bodies touch (at least the rigid Hertz time), still makes the
-  rigid-body noise;
+  modes through a contact spring as stiff as that mass's Hertz contact with the other
+  material (:mod:`fallgen.audio.coupling`), and the modes ring from the state it leaves them
+  in: energy is conserved, and the modes never take more than the (1 - e^2) share of the
+  impact's kinetic energy that the pair's restitution e says it loses (a prescribed rigid-body
+  impulse gave a thin steel panel more energy than the whole fall had). The impulse times
+  (1 + e), shared among the contact intervals (a body that chatters touches several times),
+  one half-sine pulse each, makes the rigid-body noise and the struck surface's forced sound;
 - a ``scrape`` or ``roll`` sample (10 ms of sustained contact) becomes a train of small random
   impulses, one per roughness wavelength travelled (``roughness_m``), each lasting the time to
   cross it, with an RMS of ``roughness_force_ratio`` (scrapes; a third of it for rolls) times
@@ -164,6 +164,28 @@ def _contact_modes(body: SoundingBody, point: np.ndarray, direction: np.ndarray 
     node = int(m.nearest(point)[0])
     d = m.normal(node) if direction is None else np.asarray(direction, float)
     return m.omega, d @ m.phi(node)
+
+
+def contact_pulses(contacts, impulse_ns: float, plate_duration_s: float
+                   ) -> tuple[tuple[float, float, float], ...]:
+    """The force of an impact as half-sine pulses, one per contact interval of
+    :func:`~fallgen.audio.coupling.coupled_impact` (``contacts``: start, length, impulse):
+    (start s, impulse N s, duration s) each, the impulses shared out of ``impulse_ns`` (the
+    impact's, (1 + e) m* v) as the contacts deliver theirs. A wall that yields as a large plate
+    (Zener's pulse of ``plate_duration_s`` for the whole impulse:
+    :func:`~fallgen.audio.hertz.plate_contact`) holds every pulse to that pulse's peak force,
+    pi J / (2 T): a pulse lasts at least its share of the plate's time, and a single contact
+    the longer of its own and the plate's."""
+    total = float(sum(max(jk, 0.0) for _, _, jk in contacts))
+    if not contacts or total <= 0.0:
+        return ((0.0, impulse_ns, plate_duration_s),)
+    out = []
+    for start, length, jk in contacts:
+        share = max(jk, 0.0) / total
+        if share > 0.0:
+            out.append((float(start), impulse_ns * share,
+                        max(float(length), plate_duration_s * share)))
+    return tuple(out)
 
 
 class FallRenderer:
@@ -397,10 +419,15 @@ class FallRenderer:
         if c.kind == "impact":
             e = min(target.material.restitution, other.material.restitution)
             v = max(c.normal_speed_mps, 1e-3)
+            # the mass the contact meets is the effective mass the recorded impulse implies
+            # (a body struck off its centre of mass, a lever, pushes back with less than its
+            # whole mass): the contact spring is its Hertz contact with the other surface
+            # (Johnson 11.4: t_c = 2.87 (m*^2 / (R* E*^2 v))^(1/5)); the whole mass's Hertz
+            # time, longer, made a spring softer by (m* / m)^(4/5)
+            m_eff = float(np.clip(c.impulse_ns / v, 1e-6, a.mass_kg))
             h = hertz_impact(a.contact_modulus_pa, a.poisson_ratio, b.contact_modulus_pa,
                              b.poisson_ratio, a.contact_radius_m, b.contact_radius_m,
-                             a.mass_kg, math.inf, v)
-            m_eff = float(np.clip(c.impulse_ns / v, 1e-6, a.mass_kg))
+                             m_eff, math.inf, v)
             # a room surface is a large plate: where it is struck it yields as a dashpot, its
             # point impedance Z = 8 sqrt(B m'') (Cremer, Heckl & Petersson ch. 5), in series
             # with the contact (hertz.plate_contact, Zener's model): a light pane or board
@@ -421,15 +448,18 @@ class FallRenderer:
             cap = (1.0 - e * e) * imp.incoming_j
             if imp.vibration_j > cap:
                 imp = imp.scaled(math.sqrt(cap / imp.vibration_j))
-            # the force lasts as long as the bodies touch: longer than the rigid Hertz time
-            # where a wall yields (the rigid-body noise's pulse)
-            t_force = max(plate.duration_s, imp.duration_s)
-            target.hits.append(ModalHit(c.time_s, p_target, j, t_force, None,
-                                        (imp.displacement[0], imp.velocity[0],
-                                         imp.duration_s)))
-            other.hits.append(ModalHit(c.time_s, p_other, j, t_force, -n_other,
-                                       (imp.displacement[1], imp.velocity[1],
-                                        imp.duration_s)))
+            # the force is what the contacts are: one half-sine pulse per contact interval
+            # (a body that chatters touches for short intervals between flights: one pulse
+            # over the time to the last parting spread a slender body's click and the floor's
+            # sound over milliseconds), each interval's share of the impulse
+            pulses = contact_pulses(imp.contacts, j, plate.duration_s)
+            touch = float(sum(d for _, _, d in pulses))
+            state = imp.parting_s  # the modes ring from the last parting
+            target.hits.append(ModalHit(c.time_s, p_target, j, touch, None,
+                                        (imp.displacement[0], imp.velocity[0], state),
+                                        pulses))
+            other.hits.append(ModalHit(c.time_s, p_other, j, touch, -n_other,
+                                       (imp.displacement[1], imp.velocity[1], state), pulses))
             return
         # scrape / roll: texture bumps along the sample
         # a scrape's texture passes at the slip speed, a roll's at the contact point's travel

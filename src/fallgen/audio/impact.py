@@ -104,6 +104,17 @@ class ModalHit:
     #: when the bodies part, and when that is after ``time_s``. The modes then ring from that
     #: state instead of from the impulse (which still makes the rigid-body noise).
     modal_state: tuple[np.ndarray, np.ndarray, float] | None = None
+    #: The contact force as a train of half-sine pulses, one per contact interval of a contact
+    #: that chatters: (start after ``time_s`` (s), impulse (N s), duration (s)) each; their
+    #: impulses sum to ``impulse_ns``. None: one pulse of ``impulse_ns`` lasting
+    #: ``duration_s`` from ``time_s``.
+    pulses: tuple[tuple[float, float, float], ...] | None = None
+
+    def force_pulses(self) -> tuple[tuple[float, float, float], ...]:
+        """(start (s), impulse (N s), duration (s)) of each half-sine pulse of the force."""
+        if self.pulses is None:
+            return ((self.time_s, self.impulse_ns, self.duration_s),)
+        return tuple((self.time_s + t, j, d) for t, j, d in self.pulses)
 
 
 def rigid_body_pressure(volume_m3: float, mass_kg: float, hits: list[ModalHit], n_out: int,
@@ -141,18 +152,20 @@ def rigid_body_pressure(volume_m3: float, mass_kg: float, hits: list[ModalHit], 
 
 
 def force_signal(hits: list[ModalHit], n_out: int, sample_rate: int) -> np.ndarray:
-    """The hits' half-sine force pulses (N), each sample the mean force over its interval (the
-    impulse it receives times the rate: every pulse's impulse exactly, however short)."""
+    """The hits' half-sine force pulses (N; :meth:`ModalHit.force_pulses`), each sample the
+    mean force over its interval (the impulse it receives times the rate: every pulse's impulse
+    exactly, however short)."""
     fs = float(sample_rate)
     force = np.zeros(n_out)
-    hits = [h for h in hits if h.impulse_ns > 0 and int(round(h.time_s * fs)) < n_out]
-    if not hits:
+    pulses = [p for h in hits for p in h.force_pulses()
+              if p[1] > 0 and int(round(p[0] * fs)) < n_out]
+    if not pulses:
         return force
-    i0 = np.array([int(round(h.time_s * fs)) for h in hits])
-    J = np.array([h.impulse_ns for h in hits])
-    tc = np.maximum([h.duration_s for h in hits], 1e-9)
+    i0 = np.array([int(round(t * fs)) for t, _, _ in pulses])
+    J = np.array([j for _, j, _ in pulses])
+    tc = np.maximum([d for _, _, d in pulses], 1e-9)
     n = np.ceil(tc * fs).astype(int) + 1  # sample intervals each pulse touches
-    hit = np.repeat(np.arange(len(hits)), n)  # every interval, hit by hit
+    hit = np.repeat(np.arange(len(pulses)), n)  # every interval, pulse by pulse
     j = np.arange(len(hit)) - np.repeat(np.cumsum(n) - n, n)  # interval within its pulse
     Jh, th = J[hit], tc[hit]
     # the impulse delivered up to the interval's start and its end (the last: all of it)
