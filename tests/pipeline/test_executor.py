@@ -105,7 +105,13 @@ def test_process_usage_reports_each_workers_peak_memory():
     from fallgen.pipeline.executor import ProcessUsage, per_process, process_usage
 
     me = process_usage()
-    assert me.pid == os.getpid() and me.peak_rss_mb > 10 and me.cpu_s > 0
+    # against the kernel's own counts: VmHWM (kB) in /proc, CPU seconds from os.times()
+    hwm = next(int(line.split()[1]) for line in open("/proc/self/status")
+               if line.startswith("VmHWM:")) / 1024
+    t = os.times()
+    assert me.pid == os.getpid()
+    assert me.peak_rss_mb == pytest.approx(hwm, rel=0.05)
+    assert me.cpu_s == pytest.approx(t.user + t.system, abs=0.5)
     got = list(parallel_map(_usage_after, [200, 1, 1, 1], _set_offset, (0,), workers=2))
     procs = per_process(got)
     # one entry per worker that took a unit (how the pool deals them is its own business)
