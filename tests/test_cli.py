@@ -248,7 +248,7 @@ def test_sounds_writes_wav_and_png(capsys, tmp_path, world, monkeypatch):
     assert np.abs(ref).max() > 0
     assert np.allclose(data, ref.astype(np.float32), atol=1e-6 * np.abs(ref).max())
     assert (tmp_path / "out" / f"{stem}.png").stat().st_size > 1000
-    # --binaural: the same fall heard in the room, two ears (spherical head by default)
+    # --binaural: the same fall heard in the room, two ears (the measured head by default)
     code, out, err = run(capsys, "sounds", str(f), "-o", str(tmp_path / "b"), "--binaural")
     assert code in (0, None), err
     data, fs = sf.read(tmp_path / "b" / f"{stem}.binaural.wav", dtype="float32")

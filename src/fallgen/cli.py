@@ -727,9 +727,9 @@ def sounds(
     listener: Annotated[str, typer.Option(
         help="Listener X,Y,Z (m, room frame) or 'centre': the room centre at 1.2 m, facing "
              "the object's resting place.")] = "centre",
-    hrtf: Annotated[Optional[Path], typer.Option(
-        help="Measured HRTF (SOFA SimpleFreeFieldHRIR); default: the spherical-head model.")]
-    = None,
+    hrtf: Annotated[str, typer.Option(
+        help="The head heard with: sadie_ku100 (measured), sphere (the spherical-head "
+             "model) or a SOFA file (SimpleFreeFieldHRIR).")] = "sadie_ku100",
     data_dir: DataDir = None,
 ) -> None:
     """Render the dry (anechoic) sound of fall events: a float32 WAV in pascals at 1 m and a
@@ -749,15 +749,14 @@ def sounds(
     r = FallRenderer(world)
     import numpy as np
 
-    from fallgen.audio import hrtf as hrtf_mod
     from fallgen.audio import mix as mix_mod
+    from fallgen.audio.heads import load_hrtf
     from fallgen.audio.room import RirSettings, RoomAcoustics
 
     head_pos = _listener(listener)
     ears = None
     if binaural:
-        ears = mix_mod.Binaural(hrtf_mod.load_sofa(hrtf, r.s.sample_rate) if hrtf
-                                else hrtf_mod.spherical_head(r.s.sample_rate))
+        ears = mix_mod.Binaural(load_hrtf(hrtf, r.s.sample_rate))
     for i, e in enumerate(evs):
         rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(i,)))
         sources = r.render_sources(e, rng)
