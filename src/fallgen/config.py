@@ -77,6 +77,18 @@ GENERATE_KEYS = ("episodes", "frames", "hrtf", "audio_s", "image_source_order",
 MAX_SEED = 2 ** 63 - 1
 #: what marks a directory as a source tree, not a place for a dataset
 SOURCE_MARKERS = ("pyproject.toml", "setup.py", "setup.cfg", ".git")
+#: how a dataset card fallgen writes begins (its front matter's first lines)
+CARD_HEAD = ("---", "pretty_name: Fallen Objects (fallgen)")
+
+
+def is_card(path: Path) -> bool:
+    """``path`` is a dataset card fallgen wrote."""
+    head = "\n".join(CARD_HEAD).encode()
+    try:
+        with open(path, "rb") as f:
+            return f.read(len(head)) == head
+    except OSError:
+        return False
 
 
 def check_out(out: str | Path, file: str | Path = "<command line>",
@@ -97,8 +109,6 @@ def check_out(out: str | Path, file: str | Path = "<command line>",
                                  "directory; build into a directory of its own, e.g. build/NAME")
         card = p / "README.md"
         if card.is_file():
-            from fallgen.dataset.integrity import is_card
-
             if not is_card(card):
                 raise InputError(file, key, f"{card} is not a fallgen dataset card (the build "
                                  "would overwrite it); build into a directory of its own")

@@ -179,7 +179,8 @@ def test_validate_accounts_for_dropped_episodes(tiny_build, tmp_path):
     metadata; validate accepts the gap only when it is recorded."""
     import pyarrow as pa
 
-    from fallgen.dataset.manifest import finalize, read_manifest
+    from fallgen.dataset.card import finalize
+    from fallgen.dataset.manifest import read_manifest
     from fallgen.dataset.validate import validate
 
     base, cfg = tiny_build

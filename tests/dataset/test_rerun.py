@@ -104,7 +104,8 @@ def test_validate_catches_it_and_a_rerun_repairs_it(tiny_build, tmp_path, cli, d
 def test_validate_sees_a_mixed_dataset_whatever_its_manifest_says(tiny_build, tmp_path):
     """Shards made from other events, or by another build, are named even when a manifest was
     written over them (the shards carry what made them)."""
-    from fallgen.dataset.manifest import finalize, read_manifest
+    from fallgen.dataset.card import finalize
+    from fallgen.dataset.manifest import read_manifest
     from fallgen.dataset.validate import validate
 
     base, _ = tiny_build

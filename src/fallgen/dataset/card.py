@@ -15,8 +15,8 @@ from pathlib import Path
 import pyarrow.parquet as pq
 
 from fallgen.atomic import write_text
-from fallgen.config import SPLITS
-from fallgen.dataset.manifest import CARD
+from fallgen.config import CARD_HEAD, SPLITS
+from fallgen.dataset.manifest import CARD, versions, write_manifest
 from fallgen.dataset.schema import ARRAYS, COLUMNS
 
 CROSS_SCENE = {"kitchen_to_study": ("kitchen", "study"), "study_to_kitchen": ("study", "kitchen")}
@@ -86,7 +86,7 @@ def write_card(root: Path, config_text: str, root_seed: int, versions: dict[str,
     kinds = sorted({r["room_kind"] for r in rows})
     n = len(rows)
     g = settings.get("generate", {})
-    lines = ["---", "pretty_name: Fallen Objects (fallgen)", "license: mit",
+    lines = [*CARD_HEAD, "license: mit",
              "task_categories:", "- robotics", "tags:", "- embodied-ai", "- audio-visual",
              "- binaural", "- navigation", "- mujoco", "size_categories:",
              f"- {_size_category(n)}"]
@@ -192,6 +192,13 @@ def _head(settings: dict) -> str:
     return f"the SOFA file `{spec}`"
 
 
+def finalize(root: Path, config_text: str, root_seed: int, settings: dict,
+             build: dict | None = None, hash_of=None) -> Path:
+    """Once every shard exists: the dataset card, then the manifest (which lists the card)."""
+    write_card(root, config_text, root_seed, versions(), settings)
+    return write_manifest(root, config_text, root_seed, settings, build, hash_of)
+
+
 def _size_category(n: int) -> str:
     for lim, name in ((1_000, "n<1K"), (10_000, "1K<n<10K"), (100_000, "10K<n<100K")):
         if n < lim:
@@ -199,4 +206,4 @@ def _size_category(n: int) -> str:
     return "100K<n<1M"
 
 
-__all__ = ["write_card", "shard_kinds", "CARD", "CROSS_SCENE"]
+__all__ = ["write_card", "finalize", "shard_kinds", "CARD", "CROSS_SCENE"]

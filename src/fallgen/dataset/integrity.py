@@ -52,7 +52,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from fallgen.atomic import write_text
-from fallgen.config import check_out
+from fallgen.config import check_out, is_card
 from fallgen.errors import InputError
 
 if TYPE_CHECKING:
@@ -370,15 +370,6 @@ def unfinalize(root: Path) -> None:
     card = root / CARD
     if card.is_file() and is_card(card):
         card.unlink()
-
-
-def is_card(path: Path) -> bool:
-    """``path`` is a dataset card fallgen wrote."""
-    try:
-        with open(path, "rb") as f:
-            return f.read(64).startswith(b"---\npretty_name: Fallen Objects (fallgen)")
-    except OSError:
-        return False
 
 
 def tmp_name(path: Path) -> Path:

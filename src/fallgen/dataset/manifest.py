@@ -81,14 +81,5 @@ def write_manifest(root: Path, config_text: str, root_seed: int, settings: dict,
     return path
 
 
-def finalize(root: Path, config_text: str, root_seed: int, settings: dict,
-             build: dict | None = None, hash_of: Callable[[Path], dict] | None = None) -> Path:
-    """Once every shard exists: the dataset card, then the manifest (which lists the card)."""
-    from fallgen.dataset.card import write_card
-
-    write_card(root, config_text, root_seed, versions(), settings)
-    return write_manifest(root, config_text, root_seed, settings, build, hash_of)
-
-
 def read_manifest(root: Path) -> dict:
     return json.loads((root / MANIFEST).read_text())

@@ -68,8 +68,12 @@ def _spec(inst: ObjectInstance) -> ObjectSpec:
     return ObjectSpec(inst.category, inst.variant, inst.material.name, inst.scale)
 
 
-def _instance(world: World, s: ObjectSpec) -> ObjectInstance:
+def instance_of(world: World, s: ObjectSpec) -> ObjectInstance:
+    """The object instance an event's :class:`ObjectSpec` names."""
     return world.categories.instance(s.category, s.variant, s.material, s.scale)
+
+
+_instance = instance_of
 
 
 def _fits(world: World, zone: Zone, cid: str) -> bool:
@@ -120,7 +124,7 @@ def _settle_distractors(world: World, variant: RoomVariant, zone: Zone, target_c
         if z + r > zone.drop.zmax:
             break
         objs.append(PlacedObject(f"d{k}", inst, (x, y, z), _uniform_quat(rng)))
-    statics = [PlacedObject(f"o{k}", _instance(world, p.object), p.pos, p.quat, free=False)
+    statics = [PlacedObject(f"o{k}", instance_of(world, p.object), p.pos, p.quat, free=False)
                for k, p in enumerate(occluders)]
     scene = build_scene(variant, world.materials, objs + statics, settings=PHYSICS)
     data = scene.data()
@@ -161,9 +165,9 @@ def _settle_all(m: mujoco.MjModel, d: mujoco.MjData, max_s: float) -> None:
 def _scene_objects(world: World, target: ObjectInstance, start_pos, start_quat,
                    distractors, occluders) -> list[PlacedObject]:
     objs = [PlacedObject("target", target, tuple(start_pos), tuple(start_quat))]
-    objs += [PlacedObject(f"d{k}", _instance(world, p.object), p.pos, p.quat, free=False)
+    objs += [PlacedObject(f"d{k}", instance_of(world, p.object), p.pos, p.quat, free=False)
              for k, p in enumerate(distractors)]
-    objs += [PlacedObject(f"o{k}", _instance(world, p.object), p.pos, p.quat, free=False)
+    objs += [PlacedObject(f"o{k}", instance_of(world, p.object), p.pos, p.quat, free=False)
              for k, p in enumerate(occluders)]
     return objs
 
@@ -388,7 +392,7 @@ def replay(world: World, event: FallEvent, criteria: SettleCriteria = SettleCrit
     exactly the recorded number of steps. Bit-identical to the rehearsal under the same MuJoCo;
     with a static ``agent`` in the room the fall may change if the object meets it."""
     variant = world.variant(event.room_variant)
-    target = _instance(world, event.target)
+    target = instance_of(world, event.target)
     objs = _scene_objects(world, target, event.start_pos, event.start_quat, event.distractors,
                           event.occluders)
     res, contacts, com, _, _, scene = _simulate(world, variant, objs, event.start_linvel,
@@ -405,7 +409,7 @@ def record_drop(world: World, variant_id: str, zone: Zone, target: ObjectSpec, p
     static ``distractors``, for exactly ``steps`` steps; no settle or zone checks. For tests
     and calibration drops."""
     v = world.variant(variant_id)
-    inst = _instance(world, target)
+    inst = instance_of(world, target)
     pos, quat = tuple(map(float, pos)), tuple(map(float, quat))
     scene = build_scene(v, world.materials,
                         _scene_objects(world, inst, pos, quat, distractors, ()),

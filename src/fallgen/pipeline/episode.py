@@ -41,7 +41,7 @@ from fallgen.audio.room import RirSettings, RoomAcoustics
 from fallgen.nav.agent import HEADINGS, VISIBLE_PIXELS, AgentSpec, Pose, run
 from fallgen.nav.expert import Expert, NoPath, SearchLimit
 from fallgen.nav.occupancy import OccupancyGrid
-from fallgen.physics.drop import _instance, replay
+from fallgen.physics.drop import instance_of, replay
 from fallgen.physics.events import FallEvent
 from fallgen.pipeline.settled import SettledRoom
 from fallgen.vision.camera import WIDTH, EgoCamera, View, world_category_labels
@@ -167,7 +167,7 @@ class EpisodeMaker:
                               room_faces=None if self.appearance_randomization
                               else self._room_faces.get(event.room_variant))
         self._room_samples[event.room_variant] = settled.static
-        variant, target = settled.variant, _instance(world, event.target)
+        variant, target = settled.variant, instance_of(world, event.target)
         data, camera, grid = settled.data, settled.camera, settled.grid
         centre = settled.centre
         try:

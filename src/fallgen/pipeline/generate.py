@@ -39,7 +39,7 @@ from fallgen.audio.room import RirSettings
 from fallgen.config import SPLITS, BuildConfig
 from fallgen.dataset import integrity
 from fallgen.dataset.integrity import Stamp
-from fallgen.dataset.manifest import finalize
+from fallgen.dataset.card import finalize
 from fallgen.dataset.schema import COLUMNS
 from fallgen.dataset.writer import ShardWriter, row_of, shard_meta, shard_name
 from fallgen.errors import InputError

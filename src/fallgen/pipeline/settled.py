@@ -22,7 +22,7 @@ import numpy as np
 from fallgen.nav.agent import VISIBLE_PIXELS, AgentSpec, Pose
 from fallgen.nav.expert import Expert, Plan, expert, plan_to_see
 from fallgen.nav.occupancy import OccupancyGrid, geom_box_corners, occupancy, room_samples
-from fallgen.physics.drop import _instance
+from fallgen.physics.drop import instance_of
 from fallgen.physics.events import FallEvent
 from fallgen.vision.camera import EgoCamera
 from fallgen.vision.gl import GLContext
@@ -36,11 +36,11 @@ from fallgen.world.scene import LOOK, VIEW, PlacedObject, build_scene
 def settled_objects(world: World, event: FallEvent) -> list[PlacedObject]:
     """The event's objects at rest: the target (``target``), the distractors (``d0``, ...) and
     the occluders (``o0``, ...), all fixed."""
-    out = [PlacedObject("target", _instance(world, event.target), tuple(event.settle_pos),
+    out = [PlacedObject("target", instance_of(world, event.target), tuple(event.settle_pos),
                         tuple(event.settle_quat), free=False)]
-    out += [PlacedObject(f"d{k}", _instance(world, p.object), p.pos, p.quat, free=False)
+    out += [PlacedObject(f"d{k}", instance_of(world, p.object), p.pos, p.quat, free=False)
             for k, p in enumerate(event.distractors)]
-    out += [PlacedObject(f"o{k}", _instance(world, p.object), p.pos, p.quat, free=False)
+    out += [PlacedObject(f"o{k}", instance_of(world, p.object), p.pos, p.quat, free=False)
             for k, p in enumerate(event.occluders)]
     return out
 
