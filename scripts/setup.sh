@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Set up everything fallgen needs on a fresh Debian machine, idempotently:
 #   - Debian GL libraries for headless MuJoCo rendering (EGL / OSMesa), when missing;
-#   - a virtualenv in .venv with fallgen installed (editable) and its test extras.
+#   - a virtualenv in .venv with fallgen installed (editable) with its test and learn extras
+#     (the learn extra's tests, Stable-Baselines3 on fallgen.env.wrappers, always run).
 # Usage: scripts/setup.sh            (VENV=path and PYTHON=python3.11 override the defaults)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -44,7 +45,7 @@ stamp=$VENV/.fallgen-installed
 want=$(cat pyproject.toml | sha256sum | cut -c1-16)
 if [[ ! -f $stamp || $(cat "$stamp") != "$want" ]]; then
   "$VENV/bin/python" -m pip install -q --disable-pip-version-check --upgrade pip >&2
-  "$VENV/bin/python" -m pip install -q --disable-pip-version-check -e ".[test]" >&2
+  "$VENV/bin/python" -m pip install -q --disable-pip-version-check -e ".[test,learn]" >&2
   echo "$want" > "$stamp"
 fi
 echo "setup: ready ($VENV/bin/fallgen)" >&2

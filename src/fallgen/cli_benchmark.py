@@ -147,8 +147,8 @@ def register(app: typer.Typer, console: Console) -> None:
         category: Annotated[Optional[str], typer.Option(
             help="Only these object categories (comma-separated).")] = None,
         agent: Annotated[Optional[str], typer.Option(
-            help="Your agent: module:factory, a callable returning an object with reset() "
-            "and act(obs) -> int (see README).")] = None,
+            help="Your agent: module:factory or path/to/file.py:Class, a callable returning "
+            "an object with reset() and act(obs) -> int (see README).")] = None,
         agent_kwargs: Annotated[Optional[str], typer.Option(
             help="JSON object of keyword arguments for the factory.")] = None,
         actions: Annotated[Optional[Path], typer.Option(
@@ -287,12 +287,11 @@ def register(app: typer.Typer, console: Console) -> None:
         with Progress(TextColumn("export"), BarColumn(), MofNCompleteColumn(),
                       TimeElapsedColumn(), console=console) as bar:
             task = bar.add_task("", total=len(ids))
-            try:
+            try:  # the user's mistakes are InputErrors naming their file or option
                 path = run(dataset, out, ids, chosen, fmt, dataset_id, data_dir,
                            progress=lambda n: bar.update(task, advance=n))
-            except ValueError as e:
-                raise InputError(dataset, "expert_actions" if "expert" in str(e) else
-                                 "--format", str(e)) from None
+            except ValueError as e:  # the dataset and the environment disagree
+                raise InputError(dataset, "data/", str(e)) from None
         console.print(f"{len(ids)} expert trajectories -> {path}")
 
     @app.command("table")
