@@ -28,7 +28,13 @@ when missing; ``--dataset build/full`` for the paper-size rooms):
    geoms outside the view left out, depth read from the colour pass: see
    :mod:`fallgen.vision.gl`), alternating in this process (``--repeats`` pairs, the same
    seeded walks), and whether both gave the same observations (a sha256 of every step's rgb
-   and depth).
+   and depth);
+5. with ``--ppo``: Stable-Baselines3's PPO (its default ``MultiInputPolicy``: a CNN per
+   image) learning on :func:`fallgen.env.wrappers.compact_env` (rgb, depth, audio, pose; the
+   environment in this process), PPO's defaults but ``n_steps`` 256: env steps per second of
+   ``model.learn`` over 512 steps (two rollouts and their updates; the goal: >= 10 on 2
+   cores), the policy's parameters and the process's peak memory, with torch on 1 thread (what
+   it gets when fallgen is imported first: OMP_NUM_THREADS=1) and on 2.
 """
 
 from __future__ import annotations
@@ -222,6 +228,30 @@ def vector(dataset: Path, num_envs: int, total_steps: int, mode: str, cache: int
             "main_busy": main_busy}
 
 
+def ppo(dataset: Path, steps: int, threads: int) -> dict:
+    """PPO learning for ``steps`` env steps on the compact observations, in a process of its
+    own (torch's thread count is set once per process); see the module's item 5."""
+    code = f"""
+import json, resource, time
+import fallgen, torch
+from stable_baselines3 import PPO
+from fallgen.env.wrappers import compact_env
+torch.set_num_threads({threads})
+env = compact_env({str(dataset)!r}, "train", sensors=("rgb", "depth", "audio", "pose"),
+                  order="shuffle")
+model = PPO("MultiInputPolicy", env, n_steps=256, seed=0, device="cpu")
+t = time.perf_counter()
+model.learn({steps})
+dt = time.perf_counter() - t
+print(json.dumps({{"threads": {threads}, "steps": {steps}, "steps_per_s": round({steps} / dt, 1),
+                  "parameters": sum(p.numel() for p in model.policy.parameters()),
+                  "peak_mb": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)}}))
+"""
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True)
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--dataset", type=Path, default=REPO / "build" / "smoke")
@@ -231,6 +261,8 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=4)
     ap.add_argument("--compare-shadow-reuse", action="store_true",
                     help="only the colour draws before and after the shadow map was kept")
+    ap.add_argument("--ppo", action="store_true",
+                    help="only Stable-Baselines3's PPO on the compact observations")
     a = ap.parse_args()
     import fallgen  # noqa: F401  (BLAS threads, EGL, before numpy)
     import mujoco
@@ -239,8 +271,12 @@ def main() -> None:
     out: dict = {"dataset": str(ds), "machine": {"cpu": cpu_model(), "cores": os.cpu_count(),
                                                    "python": platform.python_version(),
                                                    "mujoco": mujoco.__version__}}
-    if a.compare_shadow_reuse:
-        out["shadow_reuse"] = shadow_reuse(ds, a.steps, a.repeats)
+    if a.compare_shadow_reuse or a.ppo:
+        if a.compare_shadow_reuse:
+            out["shadow_reuse"] = shadow_reuse(ds, a.steps, a.repeats)
+        if a.ppo:
+            out["ppo"] = [ppo(ds, 512, threads) for threads in (1, 2)]
+            out["ppo_goal_steps_per_s"] = 10
         print(json.dumps(out))
         return
     for name, sensors in (("rgb_depth", RGB_DEPTH), ("basic", BASIC), ("oracles", ORACLES)):

@@ -20,13 +20,15 @@ from gymnasium.envs.registration import register, registry
 from fallgen.env.fallen_objects import (BASIC_SENSORS, END_KEYS, NO_PLAN, ORACLE_SENSORS,
                                         SENSORS, FallenObjectsEnv)
 from fallgen.env.vector import Ready, VectorEnv, make_vec
+from fallgen.nav.agent import MAX_ACTIONS
 
 ENV_ID = "fallgen/FallenObjects-v0"
 
 if ENV_ID not in registry:
-    # no max_episode_steps: the environment truncates itself after 200 actions (a TimeLimit
-    # wrapper counting the same steps would only say so twice)
-    register(id=ENV_ID, entry_point="fallgen.env.fallen_objects:FallenObjectsEnv")
+    # the environment truncates itself after MAX_ACTIONS; the spec says so too (libraries read
+    # spec.max_episode_steps), and gym.make's TimeLimit truncates at the same step
+    register(id=ENV_ID, entry_point="fallgen.env.fallen_objects:FallenObjectsEnv",
+             max_episode_steps=MAX_ACTIONS)
 
 __all__ = ["ENV_ID", "FallenObjectsEnv", "make_vec", "VectorEnv", "Ready", "SENSORS",
            "BASIC_SENSORS", "ORACLE_SENSORS", "NO_PLAN", "END_KEYS"]

@@ -45,10 +45,12 @@ class VectorEnv(AsyncVectorEnv):
     ``step``, ``reset`` and ``close`` first wait for the steps sent (their results are lost)."""
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
-        super().__init__(*args, **kwargs)
-        if not self.shared_memory:
-            raise ValueError("send/recv need shared_memory=True")
+        # before the workers start: AsyncVectorEnv's __del__ closes what a failed start left,
+        # and closing drains the steps pending
         self._pending: set[int] = set()
+        if not kwargs.get("shared_memory", True):
+            raise ValueError("send/recv need shared_memory=True")
+        super().__init__(*args, **kwargs)
 
     def send(self, actions: Any, env_ids: Any) -> None:
         """Start one step of each environment in ``env_ids`` (none of them may be stepping)
