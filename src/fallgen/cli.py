@@ -384,7 +384,7 @@ def stats(
     import json
 
     from fallgen.atomic import write_text
-    from fallgen.dataset.stats import stats as compute
+    from fallgen.dataset.stats import stats as compute, verdict
 
     s = compute(_open(dataset).root)
     console.print(f"{dataset}: {s['episodes']} episodes in {s['room_variants']} room variants, "
@@ -436,7 +436,7 @@ def stats(
         shown = "-" if v is None else f"{v:.3g}" if isinstance(v, float) else \
             ", ".join(f"{x:.1f}" for x in v) if isinstance(v, list) else \
             ", ".join(f"{k} {x:+.1f}" for k, x in v.items()) if isinstance(v, dict) else str(v)
-        t.add_row(name, shown, g["bound"], "?" if g["ok"] is None else "yes" if g["ok"] else "NO")
+        t.add_row(name, shown, g["bound"], verdict(g))
     console.print(t)
     if json_out:
         write_text(json_out, json.dumps(s, indent=1) + "\n")
@@ -691,7 +691,7 @@ def materials_list(data_dir: DataDir = None) -> None:
 
 @assets_app.command("modes")
 def assets_modes(
-    workers: Annotated[int, typer.Option(min=1, help="Processes.")] = 1,
+    workers: Workers = None,
     cache_dir: Annotated[Optional[Path], typer.Option(
         "--cache-dir", help="Modal cache (default: $FALLGEN_CACHE/modes or "
         "~/.cache/fallgen/modes).", show_default=False)] = None,
@@ -710,7 +710,7 @@ def assets_modes(
     with Progress(TextColumn("modes"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                   TextColumn("{task.description}"), console=console) as progress:
         task = progress.add_task("", total=total)
-        precompute(world, cache_dir=cache_dir, workers=workers,
+        precompute(world, cache_dir=cache_dir, workers=_workers(workers),
                    on_done=lambda label: progress.update(task, advance=1, description=label))
     console.print(f"{total} modal models in {cache_dir or default_cache_dir()}")
 

@@ -218,6 +218,28 @@ def test_two_claims_and_the_action_limit(tiny_dataset):
         e.close()
 
 
+def test_the_spec_holds_the_action_limit(tiny_dataset):
+    """gym.make's environment says its limit in its spec (what libraries read), and its
+    TimeLimit ends the episode at the step the environment does: the 200th action, once."""
+    import gymnasium as gym
+
+    import fallgen.env
+    from fallgen.nav.agent import LEFT
+
+    e = gym.make(fallgen.env.ENV_ID, dataset=str(tiny_dataset), sensors=("pose",))
+    try:
+        assert e.spec.max_episode_steps == 200
+        e.reset(options={"episode_id": 2})
+        ends = []
+        for k in range(200):
+            _, _, term, trunc, info = e.step(LEFT)
+            if term or trunc:
+                ends.append((k, term, trunc))
+        assert ends == [(199, False, True)] and info["outcome"] == "timeout"
+    finally:
+        e.close()
+
+
 def test_same_seed_same_observations(tiny_dataset):
     from fallgen.env import FallenObjectsEnv
 

@@ -144,7 +144,7 @@ def write_card(root: Path, config_text: str, root_seed: int, versions: dict[str,
               "steps counter-clockwise from +x; tilt in degrees, up positive.", "",
               "## Parquet columns", ""]
     lines += _table(["column", "type", "unit", "meaning"],
-                    [[f"`{c}`", t, u, m.replace("|", "/")] for c, (t, u, m) in COLUMNS.items()])
+                    [[f"`{c}`", t, u, m.replace("|", "/")] for c, (t, u, m) in _columns()])
     lines += ["", "## HDF5 arrays", ""]
     lines += _table(["name", "shape", "dtype", "unit", "meaning"],
                     [[f"`{k}`", s, d, u, m] for k, (s, d, u, m) in ARRAYS.items()])
@@ -199,6 +199,27 @@ def finalize(root: Path, config_text: str, root_seed: int, settings: dict,
     return write_manifest(root, config_text, root_seed, settings, build, hash_of)
 
 
+def target_categories() -> int:
+    """How many target categories the world data defines (every ``objects/*.toml`` table with
+    ``role = "target"``; ``$FALLGEN_DATA`` or the built-in data)."""
+    import tomllib
+
+    from fallgen.paths import data_root
+
+    n = 0
+    for f in sorted((data_root() / "objects").glob("*.toml")):
+        with open(f, "rb") as fh:
+            n += sum(isinstance(c, dict) and c.get("role") == "target"
+                     for c in tomllib.load(fh).values())
+    return n
+
+
+def _columns() -> list[tuple[str, tuple[str, str, str]]]:
+    """The Parquet columns of the schema, the category's count of the world data."""
+    return [(c, (t, u, f"object category (one of {target_categories()} target categories)"
+                 if c == "category" else m)) for c, (t, u, m) in COLUMNS.items()]
+
+
 def _size_category(n: int) -> str:
     for lim, name in ((1_000, "n<1K"), (10_000, "1K<n<10K"), (100_000, "10K<n<100K")):
         if n < lim:
@@ -206,4 +227,4 @@ def _size_category(n: int) -> str:
     return "100K<n<1M"
 
 
-__all__ = ["write_card", "finalize", "shard_kinds", "CARD", "CROSS_SCENE"]
+__all__ = ["write_card", "finalize", "shard_kinds", "target_categories", "CARD", "CROSS_SCENE"]

@@ -43,6 +43,12 @@ GOALS = {"energy_ratio_ceiling": AUDIO_ENERGY_CEILING,
          # (fallgen.audio.acoustics.RT60_GOAL_S, its sources there)
          "rt60_mid_s": RT60_GOAL_S}
 PERCENTILES = (5, 25, 50, 75, 95)
+#: Goals about the distribution of the episodes, judged only on a build with at least this many
+#: (a smoke or demo build cannot meet them): a share of 1 % needs 100 episodes to be one
+#: episode, the 5th and 95th percentiles 100 to be more than the extremes, a zone kind's
+#: median a few episodes of each kind, a median 20 to be more than a few falls.
+MIN_EPISODES = {"audio_materials": 100, "peak_db_spl_p5_p95": 100,
+                "zone_median_vs_floor": 100, "energy_ratio_median": 20}
 
 
 def _summary(x) -> dict:
@@ -194,9 +200,26 @@ def floor_goals(floors: dict[str, dict]) -> dict:
     return g
 
 
+def verdict(goal: dict) -> str:
+    """How ``fallgen stats`` prints whether a goal is met: yes, NO, ``n/a (needs >= N
+    episodes)`` for a goal this build is too small to judge, ? when it cannot be measured."""
+    if goal["ok"] is None:
+        return f"n/a (needs >= {goal['needs']} episodes)" if goal.get("needs") else "?"
+    return "yes" if goal["ok"] else "NO"
+
+
 def goals(rows: list[dict]) -> dict:
     """Each of :data:`GOALS` on these episodes: the measured value, the bound, and whether it
-    holds (``None``: not measurable here, e.g. a dataset without the column)."""
+    holds (``None``: not measurable here, e.g. a dataset without the column; or, with
+    ``needs``, a goal about the distribution judged only on :data:`MIN_EPISODES` episodes)."""
+    g = _goals(rows)
+    for name, n in MIN_EPISODES.items():
+        if name in g and len(rows) < n:
+            g[name] = {**g[name], "ok": None, "needs": n}
+    return g
+
+
+def _goals(rows: list[dict]) -> dict:
     g: dict[str, dict] = {}
     ratio = np.array([r.get("audio_energy_ratio", np.nan) for r in rows], float)
     ok_ratio = ratio[np.isfinite(ratio)]
@@ -258,4 +281,5 @@ def goals(rows: list[dict]) -> dict:
     return g
 
 
-__all__ = ["stats", "goals", "GOALS", "floor_checks", "floor_goals"]
+__all__ = ["stats", "goals", "verdict", "GOALS", "MIN_EPISODES", "floor_checks",
+           "floor_goals"]
