@@ -99,8 +99,8 @@ class Limits:
 
 def _search(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray, spec: AgentSpec,
             move_cost: int, turn_cost: int, visible: Callable[[Pose], bool],
-            limits: Limits, may_see: MaySee | None, unseen: Unseen | None
-            ) -> tuple[Plan, int]:
+            limits: Limits, may_see: MaySee | None, unseen: Unseen | None,
+            sight: tuple | None) -> tuple[Plan, int]:
     # the occupancy table of the simulator's check, with a border for "outside the grid"
     # (clearance 0 there, as grid.clearance_at has it)
     ok = np.full((grid.shape[0] + 2, grid.shape[1] + 2), 0.0 >= spec.radius_m)
@@ -114,7 +114,7 @@ def _search(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray, spec:
                   half_fov_deg=FOV_DEG / 2, move_cost=move_cost, turn_cost=turn_cost,
                   tilt_cost=tilt_cost, tilt_deg=start.tilt_deg, tilt_min_deg=spec.tilt_min_deg,
                   tilt_max_deg=spec.tilt_max_deg, tilt_step_deg=spec.tilt_step_deg,
-                  actions=(FORWARD, LEFT, RIGHT), max_actions=MAX_ACTIONS)
+                  actions=(FORWARD, LEFT, RIGHT), max_actions=MAX_ACTIONS, sight=sight)
     lat.start(start.x, start.y, start.heading)
     confirmed: dict[int, int] = {}  # state -> its signed tilt steps, once rendered
     renders = 0
@@ -163,15 +163,18 @@ class Expert:
 def expert(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray,
            visible: Callable[[Pose], bool], spec: AgentSpec = AgentSpec(),
            limits: Limits = Limits(), may_see: MaySee | None = None,
-           unseen: Unseen | None = None) -> Expert:
+           unseen: Unseen | None = None, sight: tuple | None = None) -> Expert:
     """Plan the expert's action sequence from ``start`` to a pose from which ``found``
     succeeds on the object centred at ``target`` (room frame; ``corners``: points (N, 3) whose
     hull holds it, for the frustum test), and the optimum references of SPL and SNA.
     ``may_see``, ``unseen``: bounds that spare ``visible`` the views that cannot show the
-    object (:data:`MaySee`, :data:`Unseen`)."""
-    plan = plan_to_see(start, grid, target, corners, visible, spec, limits, may_see, unseen)
+    object (:data:`MaySee`, :data:`Unseen`); ``sight``: the occlusion bound's arrays
+    (:attr:`fallgen.vision.sight.Occluders.kernel`), for the search to skip the positions it
+    proves hidden without asking."""
+    plan = plan_to_see(start, grid, target, corners, visible, spec, limits, may_see, unseen,
+                       sight)
     fewest, total = _search(start, grid, target, corners, spec, 1, 1, visible, limits,
-                            may_see, unseen)
+                            may_see, unseen, sight)
     if total != len(fewest.actions) or total > len(plan.actions):
         raise AssertionError(f"fewest-actions search: {total} actions, plan "
                              f"{len(fewest.actions)}, expert {len(plan.actions)}")
@@ -181,11 +184,11 @@ def expert(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray,
 def plan_to_see(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray,
                 visible: Callable[[Pose], bool], spec: AgentSpec = AgentSpec(),
                 limits: Limits = Limits(), may_see: MaySee | None = None,
-                unseen: Unseen | None = None) -> Plan:
+                unseen: Unseen | None = None, sight: tuple | None = None) -> Plan:
     """The expert's own plan from ``start`` (fewest forward moves, then fewest turns and
     tilts; the first search of :func:`expert`), without the fewest-actions search."""
     plan, _ = _search(start, grid, target, corners, spec, 1000, 1, visible, limits, may_see,
-                      unseen)
+                      unseen, sight)
     if len(plan.actions) > MAX_ACTIONS:
         raise NoPath(f"the shortest plan takes {len(plan.actions)} actions, more than "
                      f"{MAX_ACTIONS}")

@@ -31,6 +31,8 @@ import math
 import numpy as np
 from numba import njit
 
+from fallgen.vision.sight import hidden_from
+
 #: Offset and span of each lattice coordinate in a packed key (|a|..|d| < 1024: 200 moves).
 _OFF, _SPAN = 1024, 2048
 #: Return codes of :func:`_run`.
@@ -213,9 +215,11 @@ def _reach(cost, x1, y1, parent, action, lat, g, px, py, par, act, nact, closed,
 
 @njit(cache=True)
 def _run(g, px, py, par, act, nact, closed, coords, hkeys, hval, oheap, fheap, counts, ok,
-         dirs, fracs, steps, corners, fp, ip):
+         dirs, fracs, steps, corners, fp, ip, sight):
     """Expand states until the cheapest candidate is final (FINAL: it is at the top of the
-    candidate heap), the lattice is exhausted (EXHAUSTED) or a table needs room (GROW)."""
+    candidate heap), the lattice is exhausted (EXHAUSTED) or a table needs room (GROW).
+    ``sight``: the occlusion bound's arrays (:attr:`fallgen.vision.sight.Occluders.kernel`),
+    or None: a position from which it proves the object hidden gives no candidate."""
     move, turn, headings = ip[I_MOVE], ip[I_TURN], ip[I_HEADINGS]
     hi0, hi1, res = ip[I_HI0], ip[I_HI1], fp[P_RES]
     reach2 = fp[P_REACH] * fp[P_REACH] + 1e-9
@@ -228,7 +232,7 @@ def _run(g, px, py, par, act, nact, closed, coords, hkeys, hval, oheap, fheap, c
                 return FINAL
         if n_open == 0:
             return EXHAUSTED
-        if counts[C_STATES] + 3 > len(g) or 2 * (counts[C_USED] + 3) > len(hkeys) \
+        if counts[C_STATES] + 3 > len(g) or 2 * (counts[C_USED] + 4) > len(hkeys) \
                 or n_open + 3 > len(oheap) or counts[C_FOUND] + 1 > len(fheap):
             return GROW
         key, n_open = _pop(oheap, n_open)
@@ -241,8 +245,17 @@ def _run(g, px, py, par, act, nact, closed, coords, hkeys, hval, oheap, fheap, c
         k = coords[s, 4]
         # a goal candidate: within reach, and the object in a frustum at some tilt
         dx, dy = fp[P_TX] - x0, fp[P_TY] - y0
-        if dx * dx + dy * dy <= reach2 and hkeys[_slot(hkeys, position_key(
-                coords[s, 0], coords[s, 1], coords[s, 2], coords[s, 3], headings))] == -1:
+        seen = dx * dx + dy * dy <= reach2
+        if seen:  # a position marked unseen (hval -1) gives no candidate; -2: may see
+            pk = position_key(coords[s, 0], coords[s, 1], coords[s, 2], coords[s, 3], headings)
+            j = _slot(hkeys, pk)
+            if hkeys[j] == pk:
+                seen = hval[j] == -2
+            elif sight is not None:
+                seen = not hidden_from(x0, y0, fp[P_CAMERA], sight)
+                hkeys[j], hval[j] = pk, -2 if seen else -1
+                counts[C_USED] += 1
+        if seen:
             t = tilt_bound(corners, x0, y0, k, fp, ip)
             if t >= 0:
                 total = c + t * ip[I_TILT_COST] + 1
@@ -306,7 +319,7 @@ class Lattice:
                  half_fov_deg: float, move_cost: int, turn_cost: int, tilt_cost: int,
                  tilt_deg: int, tilt_min_deg: int, tilt_max_deg: int, tilt_step_deg: int,
                  actions: tuple[int, int, int], max_actions: int,
-                 capacity: int = 1 << 14) -> None:
+                 capacity: int = 1 << 14, sight: tuple | None = None) -> None:
         fp = np.zeros(9)
         # the frustum test's margins: 5 % wider than the image, 2 cm (as the camera's own)
         fp[[P_STEP, P_RES, P_REACH, P_TX, P_TY, P_CAMERA, P_TURN_RAD, P_TAN, P_SLACK]] = (
@@ -322,6 +335,7 @@ class Lattice:
         if len(heading_vectors) != len(LATTICE_STEPS):
             raise ValueError("the exact lattice is made for 12 headings")
         self._fp, self._ip = fp, ip
+        self._sight = sight  # the occlusion bound's arrays (vision.sight.Occluders.kernel)
         self._ok = np.ascontiguousarray(ok, bool)
         self._dirs = np.ascontiguousarray(heading_vectors, float)
         self._fracs = np.ascontiguousarray(step_fractions, float)
@@ -365,7 +379,7 @@ class Lattice:
             for name in ("g", "px", "py", "parent", "act", "_nact", "_closed"):
                 setattr(self, name, np.resize(getattr(self, name), m))
             self.coords = np.resize(self.coords, (m, 5))
-        if 2 * (self._counts[C_USED] + 3) > len(self._hkeys):
+        if 2 * (self._counts[C_USED] + 4) > len(self._hkeys):
             self._hkeys, self._hval = rehash(self._hkeys, self._hval, 2 * len(self._hkeys))
         if self._counts[C_OPEN] + 3 > len(self._open):
             self._open = np.resize(self._open, 2 * len(self._open))
@@ -380,7 +394,7 @@ class Lattice:
             code = _run(self.g, self.px, self.py, self.parent, self.act, self._nact,
                         self._closed, self.coords, self._hkeys, self._hval, self._open,
                         self._found, self._counts, self._ok, self._dirs, self._fracs,
-                        LATTICE_STEPS, self._corners, self._fp, self._ip)
+                        LATTICE_STEPS, self._corners, self._fp, self._ip, self._sight)
             if code == GROW:
                 if self.states + 3 > max_states:
                     raise LatticeFull(f"more than {max_states} lattice states")
@@ -408,8 +422,8 @@ class Lattice:
         key = int(position_key(a, b, c, d, int(self._ip[I_HEADINGS])))
         j = int(_slot(self._hkeys, key))
         if self._hkeys[j] != key:
-            self._hkeys[j], self._hval[j] = key, -1
             self._counts[C_USED] += 1
+        self._hkeys[j], self._hval[j] = key, -1
 
     def heading(self, state: int) -> int:
         return int(self.coords[state, 4])

@@ -122,11 +122,16 @@ class SettledRoom:
         key = (round(pose.x, 9), round(pose.y, 9))  # one lattice point, reached any way
         s = self._sights.get(key)
         if s is None:
-            if self._occluders is None:
-                self._occluders = self._make_occluders()
-            s = self._sights[key] = self._occluders.look(
+            s = self._sights[key] = self.occluders.look(
                 np.array([pose.x, pose.y, self.spec.camera_height_m]))
         return s
+
+    @property
+    def occluders(self) -> Occluders:
+        """The scene's faces that can hide the object (made on first use)."""
+        if self._occluders is None:
+            self._occluders = self._make_occluders()
+        return self._occluders
 
     def _make_occluders(self) -> Occluders:
         m, owners = self.scene.model, self.scene.geom_owner
@@ -148,13 +153,14 @@ class SettledRoom:
         """The expert's plan from ``start`` and the references of SPL and SNA (raises
         :class:`fallgen.nav.expert.NoPath`)."""
         return expert(start, self.grid, self.centre, self.corners, self.visible, self.spec,
-                      may_see=self.may_see, unseen=self.unseen)
+                      may_see=self.may_see, unseen=self.unseen, sight=self.occluders.kernel)
 
     def plan(self, start: Pose) -> Plan:
         """The expert's own plan from ``start`` (fewest forward moves, then fewest turns)
         without the fewest-actions search: what an oracle of the next action needs."""
         return plan_to_see(start, self.grid, self.centre, self.corners, self.visible,
-                           self.spec, may_see=self.may_see, unseen=self.unseen)
+                           self.spec, may_see=self.may_see, unseen=self.unseen,
+                           sight=self.occluders.kernel)
 
     def object_distance_m(self, pose: Pose) -> float:
         """Horizontal distance from ``pose`` to the object's centre."""

@@ -32,7 +32,8 @@ FOV_DEG = 90.0
 #: Shadow map size (pixels a side) where the scene's light casts shadows: ~6 cm a texel over
 #: its cone in a room (soft-edged shadows of tables and chairs). The depth pass draws the map's
 #: pixels: 1024 cost 6 ms more a view and 30 ms more a camera than 512 on a CPU renderer, 512
-#: 3-4 ms more a view than 256 (MuJoCo's default 4096, ~40 ms a context).
+#: 3-4 ms more a view than 256 (MuJoCo's default 4096, ~40 ms a context). A scene standing
+#: still draws it once, at its first colour view (vision/gl.py keeps it for the later ones).
 SHADOW_MAP_PX = 256
 #: Multisampling of the offscreen buffer (MuJoCo's default 4). Off: on a CPU renderer 4x MSAA
 #: made a textured view's RGB 19.9 instead of 10.6 ms and RGB + depth + segmentation 24.9

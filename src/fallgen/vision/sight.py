@@ -207,6 +207,15 @@ class Occluders:
             return Sight(eye, frame, None)
         return Sight(eye, frame, (xs[:count].copy(), ys[:count].copy(), ns[:count].copy()))
 
+    @property
+    def kernel(self) -> tuple:
+        """The arrays :func:`hidden_from` takes (the faces, the object's corners and points,
+        the near distance), for compiled callers."""
+        f = self.faces
+        return (f.triangles, f.normals, f.lo, f.hi, f.spheres, f.owner, f.behind, f.solid_verts,
+                f.solid_start, f.solid_lo, f.solid_hi, f.solid_spheres, f.planes, f.nplanes,
+                self.corners, self.points, float(self.near_m))
+
     def hide(self, eye: np.ndarray) -> bool:
         """Whether the faces hide every point of the hull of the corners from ``eye`` (3,):
         then no view from there shows any of it. False when it cannot be proven."""
@@ -330,6 +339,19 @@ def _leftover(tris, normals, lo, hi, spheres, owner, behind, sverts, sstart, slo
 
 
 @njit(cache=True)
+def hidden_from(x, y, z, kernel):
+    """Whether the faces of ``kernel`` (:attr:`Occluders.kernel`) hide the object from the
+    eye at (x, y, z): no view from there shows any of it (compiled form of
+    :meth:`Occluders.hide`)."""
+    (tris, normals, lo, hi, spheres, owner, behind, sverts, sstart, slo, shi, ssph, planes,
+     nplanes, corners, points, near) = kernel
+    eye = np.array([x, y, z])
+    w, p, q = _frame(eye, corners)
+    return _leftover(tris, normals, lo, hi, spheres, owner, behind, sverts, sstart, slo, shi,
+                     ssph, planes, nplanes, eye, corners, points, near, w, p, q)[3] == 0
+
+
+@njit(cache=True)
 def _count_pixels(xs, ys, ns, w, p, q, yaw, tilt, size, scale, slack, enough):
     """Pixel centres of the view within ``slack`` pixels of the pieces, up to ``enough``."""
     ct, st, cy, sy = math.cos(tilt), math.sin(tilt), math.cos(yaw), math.sin(yaw)
@@ -379,5 +401,5 @@ def _count_pixels(xs, ys, ns, w, p, q, yaw, tilt, size, scale, slack, enough):
     return total
 
 
-__all__ = ["DRAWN_GROUPS", "Occluders", "Sight", "BEHIND_M", "near_distance",
+__all__ = ["DRAWN_GROUPS", "Occluders", "Sight", "BEHIND_M", "hidden_from", "near_distance",
            "MARGIN", "SLACK_PX"]

@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from fallgen.cache import CORRUPT_ENTRY, cache_root
 from fallgen.errors import InputError
 from fallgen.fields import Fields, load_toml
 from fallgen.world.materials import MaterialLibrary, ObjectMaterial
@@ -348,7 +349,6 @@ def _generator_source_digest() -> str:
 
 
 def _geometry_cache_file(v: Variant) -> Path:
-    from fallgen.cache import cache_root
 
     spec = json.dumps([GEOMETRY_CACHE_VERSION, v.shape, sorted(v.params.items())])
     key = hashlib.sha256((_generator_source_digest() + spec).encode()).hexdigest()[:24]
@@ -391,7 +391,7 @@ def cached_geometry(cat: Category, v: Variant) -> ObjectGeometry:
     if path.exists():
         try:
             return _load_geometry(path)
-        except (OSError, ValueError, KeyError):
+        except CORRUPT_ENTRY:
             path.unlink(missing_ok=True)  # a corrupt entry is rebuilt
     g = build_geometry(cat, v)
     try:
