@@ -475,3 +475,23 @@ def test_a_randomised_look_is_replayed(tiny_build, tiny_dataset, tmp_path):
             assert np.array_equal(obs["rgb"], b["rgb"])
     finally:
         e.close()
+
+
+def test_environment_refuses_a_dataset_heard_with_another_head(tiny_dataset, tmp_path):
+    """hrtf= names the head the agent expects: the tiny build's (the measured SADIE head) is
+    accepted by name and by the same file; the spherical head and another SOFA file are
+    refused in one line naming both heads."""
+    from fallgen.audio.heads import PACKAGED
+    from fallgen.env import FallenObjectsEnv
+
+    for same in ("sadie_ku100", str(PACKAGED)):
+        FallenObjectsEnv(tiny_dataset, hrtf=same, sensors=("pose",)).close()
+    other = tmp_path / "other.sofa"
+    other.write_bytes(PACKAGED.read_bytes() + b"\0")  # another file: another head
+    for wrong, named in (("sphere", "sphere"), (str(other), "other.sofa:")):
+        with pytest.raises(ValueError) as e:
+            FallenObjectsEnv(tiny_dataset, hrtf=wrong, sensors=("pose",))
+        msg = str(e.value)
+        assert "\n" not in msg and "sadie_ku100:" in msg and named in msg
+    with pytest.raises(ValueError, match="hrtf="):
+        FallenObjectsEnv(tiny_dataset, hrtf=str(tmp_path / "missing.sofa"), sensors=("pose",))

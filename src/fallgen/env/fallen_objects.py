@@ -63,7 +63,7 @@ from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
 from fallgen.dataset.reader import Dataset
-from fallgen.env.source import EpisodeData, EpisodeSource, select
+from fallgen.env.source import EpisodeData, EpisodeSource, check_hrtf, select
 from fallgen.env.topdown import top_down
 from fallgen.nav.agent import ACTIONS, FOUND, HEADINGS, MAX_ACTIONS, SUCCESS_DISTANCE_M, \
     TURN_DEG, VISIBLE_PIXELS, AgentSpec, Pose, Walk
@@ -100,7 +100,9 @@ class FallenObjectsEnv(gym.Env):
     episode N of the dataset whatever the selection. ``data_dir``: the world data the dataset
     was built with (default: the built-in data); a mismatch is detected at reset; ``world``: an
     already loaded :class:`fallgen.world.library.World` instead. ``view_cache``: views kept per
-    episode (keyed by pose)."""
+    episode (keyed by pose). ``hrtf``: the head the agent expects to hear with (``sphere``,
+    ``sadie_ku100`` or a SOFA file, as a build config names it); a dataset whose clips were
+    heard with another is refused (ValueError); None: not checked."""
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
 
@@ -111,7 +113,7 @@ class FallenObjectsEnv(gym.Env):
                  sensors: Sequence[str] = BASIC_SENSORS, audio: str = "first",
                  claims: int = 1, reward: str = "paper", render_mode: str | None = None,
                  data_dir: str | Path | None = None, view_cache: int = 64,
-                 world: Any = None) -> None:
+                 world: Any = None, hrtf: str | None = None) -> None:
         sensors = tuple(sensors)
         bad = [s for s in sensors if s not in SENSORS]
         if bad or not sensors:
@@ -127,6 +129,8 @@ class FallenObjectsEnv(gym.Env):
         from fallgen.world.library import load_world
 
         self.ds = dataset if isinstance(dataset, Dataset) else Dataset(dataset)
+        if hrtf is not None:
+            check_hrtf(self.ds, hrtf)
         self.ids = select(self.ds, split, room_kind, categories, episode_ids, rank, world_size)
         self.sensors, self.audio_mode, self.claims = sensors, audio, int(claims)
         self.order, self.reward_mode, self.render_mode = order, reward, render_mode

@@ -52,6 +52,24 @@ class EpisodeData:
         return Pose(float(r["spawn_x"]), float(r["spawn_y"]), int(r["spawn_heading"]), 0)
 
 
+def check_hrtf(ds: Dataset, hrtf: str) -> None:
+    """ValueError in one line when ``ds``'s clips were heard with another head than ``hrtf``
+    (``sphere``, ``sadie_ku100`` or a SOFA file; compared by :func:`fallgen.audio.heads.hrtf_id`,
+    the file's content). A dataset that does not record its head is not refused."""
+    from fallgen.audio.heads import hrtf_id
+
+    try:
+        want = hrtf_id(str(hrtf))
+    except (OSError, ValueError) as e:
+        raise ValueError(f"hrtf={hrtf!r}: {e}") from None
+    def content(identity: str) -> str:  # the file's hash (a file's name may differ)
+        return identity.split(":", 1)[-1]
+
+    if ds.hrtf is not None and content(ds.hrtf) != content(want):
+        raise ValueError(f"{ds.root}: hrtf: the dataset's clips were heard with {ds.hrtf}, "
+                         f"not {want} (hrtf={hrtf!r})")
+
+
 def select(ds: Dataset, split: str | None = None, room_kind: str | None = None,
            categories: Collection[str] | None = None,
            episode_ids: Sequence[int] | None = None, rank: int = 0,
