@@ -20,6 +20,9 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+#: the modular agent's oracle switches (``fallgen evaluate --oracles``)
+ORACLES = ("segmentation", "category", "location")
+
 
 @runtime_checkable
 class Agent(Protocol):
@@ -48,4 +51,4 @@ def reset_agent(agent: Any, seed: int) -> None:
         agent.reset()
 
 
-__all__ = ["Agent", "agent_sensors", "reset_agent"]
+__all__ = ["Agent", "ORACLES", "agent_sensors", "reset_agent"]

@@ -31,7 +31,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from scipy.ndimage import label
 
-from fallgen.agents import ORACLES
+from fallgen.agents.base import ORACLES
 from fallgen.agents.mapping import FIT_SLACK_M, SIZE, AgentPose, EgoMap, back_project, project
 from fallgen.nav.agent import DOWN, FORWARD, FOUND, HEADING_VECTORS, HEADINGS, LEFT, \
     MAX_ACTIONS, RIGHT, STEP_M, SUCCESS_DISTANCE_M, TURN_DEG, UP, VISIBLE_PIXELS, AgentSpec
