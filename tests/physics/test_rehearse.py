@@ -66,7 +66,7 @@ def test_sweep_bounds_the_fall_and_a_clear_agent_changes_nothing(world, events_a
     why generate reuses the rehearsal's contacts then; an agent on the fall's path is not
     clear."""
     from fallgen.nav.agent import AgentSpec, Pose
-    from fallgen.physics.drop import _instance
+    from fallgen.physics.drop import instance_of
     from fallgen.pipeline.episode import clear_of_fall
     from fallgen.world.scene import AgentBody
 
@@ -77,7 +77,7 @@ def test_sweep_bounds_the_fall_and_a_clear_agent_changes_nothing(world, events_a
         x0, y0, x1, y1 = e.sweep_xy
         for p in (e.start_pos, e.settle_pos):
             assert x0 <= p[0] <= x1 and y0 <= p[1] <= y1
-        target = _instance(world, e.target)
+        target = instance_of(world, e.target)
         lx, ly, _ = world.variant(e.room_variant).size_m
         on_path = Pose(e.settle_pos[0], e.settle_pos[1], 0)
         assert not clear_of_fall(e, target, on_path, spec)

@@ -39,6 +39,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fallgen.audio.phasors import powers
+
 #: Samples per period of the fastest normal mode when searching the separation.
 _PER_PERIOD = 6
 #: Grid points per rigid contact time (at least).
@@ -185,10 +187,8 @@ class _Waves:
 
     def grid(self, t: np.ndarray, dt: float) -> np.ndarray:
         """f on ``t``, a uniform grid of step ``dt``."""
-        from fallgen.audio.impact import _powers
-
         c = (self.a - 1j * self.b) * np.exp(1j * self.w * t[0])
-        waves = (c @ _powers(np.exp(1j * self.w * dt), len(t))).real
+        waves = (c @ powers(np.exp(1j * self.w * dt), len(t))).real
         return self.sign * (self.c0 + self.c1 * t + waves)
 
 

@@ -53,7 +53,8 @@ from fallgen.audio.floors import MOUNTED_LOSS_FACTOR, surface_plate
 from fallgen.audio.hertz import hertz_impact, plate_contact
 from fallgen.audio.impact import ModalHit, SoundingBody, plate_pressure, render
 from fallgen.audio.mix import DrySource
-from fallgen.audio.modes import ModalModel, ModalSettings, modal_model, round_nu
+from fallgen.audio.modal_model import ModalModel, round_nu
+from fallgen.audio.modes import ModalSettings, modal_model
 from fallgen.audio.shells import plate_model
 from fallgen.physics.contacts import ContactEvent
 from fallgen.physics.events import GRAVITY, FallEvent
@@ -300,9 +301,9 @@ class FallRenderer:
         """The mechanical energy the fall loses, all of it in its contacts: the drop of the
         target's centre of mass times m g, plus its kinetic energy at the start (translation
         and rotation; it comes to rest)."""
-        from fallgen.physics.drop import _instance
+        from fallgen.physics.drop import instance_of
 
-        inst = _instance(self.world, event.target)
+        inst = instance_of(self.world, event.target)
         com0 = np.asarray(event.start_pos, float) + _quat_mat(event.start_quat) @ inst.com
         v, w = np.asarray(event.start_linvel, float), np.asarray(event.start_angvel, float)
         return float(inst.mass_kg * GRAVITY * (com0[2] - event.settle_com[2])
@@ -347,10 +348,10 @@ class FallRenderer:
                 cluster_m: float = 0.0) -> tuple[_Body, list[tuple[str, _Body]], list]:
         """The target and every other body hit, with their hits (and each hit's source group:
         contacts within ``cluster_m`` of a group's first point)."""
-        from fallgen.physics.drop import _instance, _scene_objects
+        from fallgen.physics.drop import instance_of, scene_objects
 
         world = self.world
-        objs = _scene_objects(world, _instance(world, event.target), event.start_pos,
+        objs = scene_objects(world, instance_of(world, event.target), event.start_pos,
                               event.start_quat, event.distractors, event.occluders)
         placed = {o.name: o for o in objs}  # "target", "d0".., "o0"..
         if scene is None:

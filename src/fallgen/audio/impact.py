@@ -31,7 +31,8 @@ import numpy as np
 
 from fallgen.audio.coupling import ringing_gains
 from fallgen.audio.hertz import half_sine_spectrum
-from fallgen.audio.modes import ModalModel
+from fallgen.audio.modal_model import ModalModel
+from fallgen.audio.phasors import powers
 
 RHO_AIR = 1.204  # kg/m^3 at 20 C
 C_AIR = 343.0  # m/s
@@ -285,19 +286,6 @@ BLOCK = 512
 PRUNE = 10 ** (-DECAY_FLOOR_DB / 20)
 
 
-def _powers(z: np.ndarray, n: int) -> np.ndarray:
-    """(M, n) table z_i^k for k < n by repeated doubling (complex ``**`` is ~50x slower)."""
-    out = np.empty((len(z), n), complex)
-    out[:, 0] = 1.0
-    m, zm = 1, z.astype(complex)
-    while m < n:
-        w = min(m, n - m)
-        out[:, m:m + w] = out[:, :w] * zm[:, None]
-        zm = zm * zm
-        m += w
-    return out
-
-
 def modal_sum(z: np.ndarray, c: np.ndarray, idx: np.ndarray, g: np.ndarray, n_out: int,
               block: int = BLOCK) -> np.ndarray:
     """sum_i c_i Im(sum_h g_hi z_i^(n - n_h)) over samples n >= n_h: damped sinusoids started
@@ -316,7 +304,7 @@ def modal_sum(z: np.ndarray, c: np.ndarray, idx: np.ndarray, g: np.ndarray, n_ou
     idx, g = idx[idx_ok], g[idx_ok][:, live]
     if len(z) == 0 or len(idx) == 0:
         return out
-    Z = _powers(z, block)  # (M, B): z^0 .. z^(B-1)
+    Z = powers(z, block)  # (M, B): z^0 .. z^(B-1)
     zB = Z[:, -1] * z
     s = np.zeros(len(z), complex)  # state at the start of the block (already weighted by c)
     peak = np.zeros(len(z))

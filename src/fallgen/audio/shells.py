@@ -17,21 +17,18 @@ Box (a toaster's sheet body): six flat panels, each simply supported along its e
 w = sin(m pi x / a) sin(n pi y / b), omega = sqrt(D / (rho h)) ((m pi / a)^2 + (n pi / b)^2).
 
 Models are built at the reference material (E_REF, RHO_REF) and scale 1 like the voxel ones, as
-a :class:`~fallgen.audio.modes.ModalModel` on a grid of surface nodes, mass-normalised, so they
+a :class:`~fallgen.audio.modal_model.ModalModel` on a grid of surface nodes, mass-normalised, so they
 rescale and synthesise the same way.
 """
 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
 import numpy as np
 
+from fallgen.audio.modal_model import E_REF, RHO_REF, ModalModel, round_nu
 from fallgen.world.shell import ThinShell
-
-if TYPE_CHECKING:
-    from fallgen.audio.modes import ModalModel
 
 #: Surface nodes of a shell model (about; at least 8 along any side).
 TARGET_NODES = 4000
@@ -166,8 +163,6 @@ def plate_model(a: float, b: float, thickness: float, nu: float, n_modes: int,
     x) in Huffington's form, H = sqrt(D_x D_y), whose simply supported modes are the same
     shapes at omega = sqrt(D_x / (rho h)) ((m pi / a)^2 + sqrt(r) (n pi / b)^2) (Leissa,
     Vibration of Plates, NASA SP-160, 1969, ch. 11)."""
-    from fallgen.audio.modes import E_REF, RHO_REF, ModalModel, round_nu
-
     nu = round_nu(nu)
     h = thickness
     c = math.sqrt(E_REF * h ** 3 / (12 * (1 - nu ** 2)) / (RHO_REF * h))

@@ -73,8 +73,6 @@ def instance_of(world: World, s: ObjectSpec) -> ObjectInstance:
     return world.categories.instance(s.category, s.variant, s.material, s.scale)
 
 
-_instance = instance_of
-
 
 def _fits(world: World, zone: Zone, cid: str) -> bool:
     lib = world.categories
@@ -162,8 +160,10 @@ def _settle_all(m: mujoco.MjModel, d: mujoco.MjData, max_s: float) -> None:
             return
 
 
-def _scene_objects(world: World, target: ObjectInstance, start_pos, start_quat,
-                   distractors, occluders) -> list[PlacedObject]:
+def scene_objects(world: World, target: ObjectInstance, start_pos, start_quat,
+                  distractors, occluders) -> list[PlacedObject]:
+    """The objects of a trial's scene: the target at its start pose (free), the distractors
+    and occluders where they were placed (fixed)."""
     objs = [PlacedObject("target", target, tuple(start_pos), tuple(start_quat))]
     objs += [PlacedObject(f"d{k}", instance_of(world, p.object), p.pos, p.quat, free=False)
              for k, p in enumerate(distractors)]
@@ -269,7 +269,7 @@ def run_trial(world: World, variant: RoomVariant, zone: Zone, trial: int,
               float(rng.normal(0, cfg.push_speed_mps)) + throw[1], 0.0)
     angvel = tuple(float(a) for a in rng.normal(0, cfg.spin_radps, 3))
     start = (float(x), float(y), z)
-    objs = _scene_objects(world, target, start, quat, distractors, occluders)
+    objs = scene_objects(world, target, start, quat, distractors, occluders)
     res, contacts, com, mass, overlap, _ = _simulate(
         world, variant, objs, linvel, angvel, cfg.settle, floor_z=zone.volume.zmin)
     if overlap:
@@ -393,7 +393,7 @@ def replay(world: World, event: FallEvent, criteria: SettleCriteria = SettleCrit
     with a static ``agent`` in the room the fall may change if the object meets it."""
     variant = world.variant(event.room_variant)
     target = instance_of(world, event.target)
-    objs = _scene_objects(world, target, event.start_pos, event.start_quat, event.distractors,
+    objs = scene_objects(world, target, event.start_pos, event.start_quat, event.distractors,
                           event.occluders)
     res, contacts, com, _, _, scene = _simulate(world, variant, objs, event.start_linvel,
                                          event.start_angvel, criteria, max_steps=event.steps,
@@ -412,7 +412,7 @@ def record_drop(world: World, variant_id: str, zone: Zone, target: ObjectSpec, p
     inst = instance_of(world, target)
     pos, quat = tuple(map(float, pos)), tuple(map(float, quat))
     scene = build_scene(v, world.materials,
-                        _scene_objects(world, inst, pos, quat, distractors, ()),
+                        scene_objects(world, inst, pos, quat, distractors, ()),
                         settings=PHYSICS)
     m, d = scene.model, scene.data()
     mujoco.mj_forward(m, d)
