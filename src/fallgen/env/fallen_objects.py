@@ -41,6 +41,11 @@ shaping): -0.01 per action, +10 for success, plus the decrease of the geodesic d
 
 An episode ends at a successful ``found`` (terminated), when the ``claims`` allowed are used
 (terminated; 1 by default, 2 as the original challenge), or after 200 actions (truncated).
+``oracle_found=True`` (the paper's rule for its PPO agent) also ends it in success, with the
+success reward, after the first action that leaves the agent within 2 m (horizontally) of the
+object with the object in view (the judge's rule for a ``found``, asked after every action; the
+``found`` action itself is not needed, and its claims still count). SPL and SNA are then those
+of the path and the actions up to that step; ``claims`` is 0 when no ``found`` was made.
 ``info`` after every step: ``episode_id``, ``step``, ``moved``; at the end also the metrics
 (:data:`END_KEYS`): success, spl, sna, soft_spl, path length, shortest path, fewest actions,
 distance to the object (straight and geodesic), the step it was first seen (-1: never), the
@@ -102,7 +107,8 @@ class FallenObjectsEnv(gym.Env):
     already loaded :class:`fallgen.world.library.World` instead. ``view_cache``: views kept per
     episode (keyed by pose). ``hrtf``: the head the agent expects to hear with (``sphere``,
     ``sadie_ku100`` or a SOFA file, as a build config names it); a dataset whose clips were
-    heard with another is refused (ValueError); None: not checked."""
+    heard with another is refused (ValueError); None: not checked. ``oracle_found``: the
+    episode ends in success as soon as the object is within 2 m and in view."""
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
 
@@ -113,7 +119,8 @@ class FallenObjectsEnv(gym.Env):
                  sensors: Sequence[str] = BASIC_SENSORS, audio: str = "first",
                  claims: int = 1, reward: str = "paper", render_mode: str | None = None,
                  data_dir: str | Path | None = None, view_cache: int = 64,
-                 world: Any = None, hrtf: str | None = None) -> None:
+                 world: Any = None, hrtf: str | None = None,
+                 oracle_found: bool = False) -> None:
         sensors = tuple(sensors)
         bad = [s for s in sensors if s not in SENSORS]
         if bad or not sensors:
@@ -134,6 +141,7 @@ class FallenObjectsEnv(gym.Env):
         self.ids = select(self.ds, split, room_kind, categories, episode_ids, rank, world_size)
         self.sensors, self.audio_mode, self.claims = sensors, audio, int(claims)
         self.order, self.reward_mode, self.render_mode = order, reward, render_mode
+        self.oracle_found = bool(oracle_found)
         self.spec_agent = AgentSpec()
         self.world = world if world is not None else load_world(data_dir)
         self.category_labels = tuple(world_category_labels(self.world))
@@ -275,6 +283,9 @@ class FallenObjectsEnv(gym.Env):
         before, d_before = walk.pose, walk.distance_m()
         moved = walk.act(a)
         pose = walk.pose
+        if self.oracle_found and not walk.done and \
+                walk.distance_m() <= SUCCESS_DISTANCE_M and self._room.visible(pose):
+            walk.succeed()
         reward = STEP_REWARD
         displaced = (pose.x, pose.y) != (before.x, before.y)
         geo = self._geo.distance(pose.xy) if displaced else self._geo_now

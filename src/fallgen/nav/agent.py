@@ -204,6 +204,13 @@ class Walk:
             self.done = True
         return ok
 
+    def succeed(self) -> None:
+        """End the episode in success where the agent stands, without an action or a claim
+        (an oracle's ``found``: the caller has judged the pose)."""
+        if self.done:
+            raise RuntimeError("the episode is over")
+        self.success = self.seen_at_claim = self.done = True
+
     def outcome(self) -> Outcome:
         return Outcome(self.success, self.claims > 0, self.distance_m(), self.seen_at_claim,
                        self.n_actions, self.path_m, tuple(self.poses), self.claims)
