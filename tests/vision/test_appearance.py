@@ -1,4 +1,4 @@
-"""How the rooms look (issue 29): textured surfaces and furniture at their real size and a
+"""How the rooms look: textured surfaces and furniture at their real size and a
 shadow-casting ceiling light in the scenes that are rendered, with the segmentation and depth
 of the flat scene, deterministic, and more detail than flat colours."""
 
@@ -42,7 +42,7 @@ def test_segmentation_and_depth_are_the_flat_scenes(flat_and_look):
         assert np.array_equal(a.instance, b.instance)
         assert np.array_equal(a.category, b.category)
         # the same depth up to float rounding (a textured box is the same box in another
-        # local frame: see world.scene._face_frame)
+        # local frame: see world.dressing.face_frame)
         np.testing.assert_allclose(a.depth, b.depth, atol=1e-4)
 
 
@@ -159,8 +159,8 @@ def _dark_line_centres(profile: np.ndarray) -> np.ndarray:
 
 def _face_on(texture, half_x, half_y, repeat=None, px=300, view_m=1.0):
     """An orthographic view, ``view_m`` high, of the +z face of a box drawn by the scenes' own
-    texturing (:func:`fallgen.world.scene._look`), its local y up: the grey levels."""
-    from fallgen.world.scene import _look
+    texturing (:func:`fallgen.world.dressing.dress_textured`), its local y up: the grey levels."""
+    from fallgen.world.dressing import dress_textured
 
     spec = _flat_lit_spec()
     g = spec.worldbody.add_geom()
@@ -168,7 +168,7 @@ def _face_on(texture, half_x, half_y, repeat=None, px=300, view_m=1.0):
     q = np.zeros(4)  # local z toward the camera (world -y), local y up
     mujoco.mju_mat2Quat(q, _FACING)
     g.quat = q
-    _look(spec, g, texture, [0.9, 0.9, 0.9, 1.0], repeat)
+    dress_textured(spec, g, texture, [0.9, 0.9, 0.9, 1.0], repeat)
     return _orthographic_grey(spec, px, view_m)
 
 
@@ -251,7 +251,8 @@ def test_objects_look_like_their_material(world):
     box-projected texture coordinates); glass and clear plastic (a PET bottle) stay
     transparent, a coloured plastic does not; the geom's colour is its material's (MuJoCo lets
     a geom's colour override its material's)."""
-    from fallgen.world.scene import GLOSS, PlacedObject
+    from fallgen.world.dressing import GLOSS
+    from fallgen.world.scene import PlacedObject
 
     lib = world.categories
     placed = [PlacedObject("a", lib.instance("wineglass", "red_wine", "glass"),
@@ -349,7 +350,7 @@ def test_a_cooker_shows_its_knobs_and_burners():
 
 
 def test_an_objects_texture_sits_at_its_size_in_metres():
-    """An object's mesh gets texture coordinates by box projection (scene.box_texcoords) and
+    """An object's mesh gets texture coordinates by box projection (dressing.box_texcoords) and
     its material's texture at real size: 25 cm tiles on a mesh's side show a grout line every
     25 cm (75 of 300 pixels of a 1 m orthographic view), whatever the mesh's size; every
     triangle corner is mapped on the plane its triangle faces."""
@@ -358,7 +359,7 @@ def test_an_objects_texture_sits_at_its_size_in_metres():
     import trimesh
 
     from fallgen.world.appearance import TextureSpec
-    from fallgen.world.scene import _object_look, box_texcoords
+    from fallgen.world.dressing import box_texcoords, dress_object
 
     tiles = TextureSpec.make("tiles", 1.0, tile_m=0.25, grout_m=0.01, grout=0.3, variation=0.0)
     mesh = trimesh.creation.box((0.9, 0.3, 0.9))
@@ -378,7 +379,7 @@ def test_an_objects_texture_sits_at_its_size_in_metres():
     g = spec.worldbody.add_geom()
     g.type, g.meshname = mujoco.mjtGeom.mjGEOM_MESH, "thing"
     material = types.SimpleNamespace(name="tiled", audio="ceramic", texture=tiles)
-    _object_look(spec, g, material, [0.9, 0.9, 0.9, 1.0], None, mapped=True)
+    dress_object(spec, g, material, [0.9, 0.9, 0.9, 1.0], None, mapped=True)
     grey = _orthographic_grey(spec)
     centres = _dark_line_centres(grey[30:270, 30:270].mean(axis=0))
     spacing = np.diff(centres)
