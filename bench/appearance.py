@@ -1,4 +1,4 @@
-"""How the rooms look (issue 29): detail share and cost of 300 x 300 RGB views, flat colours
+"""How the rooms look: detail share and cost of 300 x 300 RGB views, flat colours
 against textures and shadows, side by side on the same poses; a before/after PNG.
 
     python bench/appearance.py [--views 64] [--seed 0] [--png docs/appearance.png]

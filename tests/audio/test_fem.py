@@ -48,7 +48,7 @@ def test_brick_has_six_rigid_modes_and_scales_with_E_h():
 
 
 def test_steel_bar_bending_modes_match_beam_theory():
-    # The bar: 100 x 10 x 5 mm, 2 voxels through the thickness.
+    # A steel bar 100 x 10 x 5 mm, 2 voxels through the thickness.
     L, b, t = 0.1, 0.01, 0.005
     m = _beam_modes(L, b, t, 0.0025)
     f = m.omega[_z_bending(m)][:3] / (2 * math.pi)

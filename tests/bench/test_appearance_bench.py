@@ -18,7 +18,7 @@ REPO = Path(__file__).resolve().parents[2]
 
 
 def _detail_share(rgb: np.ndarray) -> float:
-    """Issue 29's measure of a view, written out here: the share of pixels whose grey level
+    """The detail share of a view, written out here: the share of pixels whose grey level
     (ITU-R BT.601 luma) has a standard deviation above 3 in its 5 x 5 neighbourhood (edges
     mirrored)."""
     from scipy.ndimage import uniform_filter

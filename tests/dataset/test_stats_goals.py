@@ -1,4 +1,4 @@
-"""fallgen stats' physical goals (issue 27), on hand-made rows: each goal is met or missed
+"""fallgen stats' physical goals, on hand-made rows: each goal is met or missed
 exactly where its bound says."""
 
 from __future__ import annotations

@@ -30,7 +30,7 @@ COLUMNS = ["episode_id", "split", "room_kind", "room_variant", "category", "audi
 OPTIONAL = ["audio_energy_ratio", "fall_height_m", "room_rt60_s"]
 #: The paper's audio materials: every one should be a target's.
 AUDIO_MATERIALS = 14
-#: Physical goals a paper-size build is checked against (issue 27): the share of the fall's
+#: Physical goals a paper-size build is checked against: the share of the fall's
 #: lost energy its sound radiates (impacts radiate ~1e-4 to 1e-2: Koss & Alfredson 1973, Akay
 #: 1978; at most a few per cent for ringing thin-walled bodies), the level heard at the agent
 #: (a fall heard from 2-6 m in a home), each zone kind's level against the floor's, and the

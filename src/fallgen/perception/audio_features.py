@@ -1,4 +1,4 @@
-"""Features of a step-0 binaural clip for the audio perception module (issue 30).
+"""Features of a step-0 binaural clip for the audio perception module.
 
 What a listener can tell from the fall's sound, as a fixed-length vector (:class:`AudioFeatures`
 holds the settings and names every entry):

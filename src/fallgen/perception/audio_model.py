@@ -1,4 +1,4 @@
-"""The auditory perception module (issue 30): from the step-0 binaural clip, the fallen object's
+"""The auditory perception module: from the step-0 binaural clip, the fallen object's
 category, its audio material and where the fall was (azimuth and distance from the agent).
 
 Trained on a build's train split, scored on another split (``fallgen audio-model train`` /

@@ -505,8 +505,8 @@ def texture_file(spec: TextureSpec, cache_dir: str | Path, px: int = DEFAULT_PX)
 
 def detail_share(rgb: np.ndarray, threshold: float = 3.0, window: int = 5) -> float:
     """The share of pixels with local detail: grey-level standard deviation above
-    ``threshold`` (0-255 scale) in a ``window`` x ``window`` neighbourhood (issue 29's
-    measure of a view)."""
+    ``threshold`` (0-255 scale) in a ``window`` x ``window`` neighbourhood (how much of a
+    view shows texture rather than flat colour)."""
     g = cv2.cvtColor(np.ascontiguousarray(rgb), cv2.COLOR_RGB2GRAY).astype(np.float32)
     mu = cv2.blur(g, (window, window))
     sd = np.sqrt(np.maximum(cv2.blur(g * g, (window, window)) - mu * mu, 0.0))

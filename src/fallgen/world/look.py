@@ -1,6 +1,6 @@
 """Appearance randomisation: the same room drawn with other textures, colours and light.
 
-For studying visual generalisation (issue 29), an episode's views may be drawn with a look of
+For studying visual generalisation, an episode's views may be drawn with a look of
 their own: every texture redrawn from another seed (other boards, tiles, stains, pictures), every
 surface finish and every furniture piece's colours shifted in lightness and hue, and the ceiling
 lights brighter or dimmer, warmer or cooler. Everything is drawn from one seed
