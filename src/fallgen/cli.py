@@ -27,6 +27,7 @@ GROUPS = (
     "fallgen.cli_build",  # rehearse, generate, build, finalize
     "fallgen.cli_dataset",  # validate, show, stats
     "fallgen.cli_benchmark",  # evaluate, export-expert, audio-model, table
+    "fallgen.cli_train",  # train (the learned policies)
 )
 
 app = typer.Typer(

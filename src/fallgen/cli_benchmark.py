@@ -86,6 +86,10 @@ def _agent_ref(agent: str | None, agent_kwargs: str | None, actions: Path | None
                 kwargs = None
             if not isinstance(kwargs, dict):
                 raise InputError("<command line>", "--agent-kwargs", "expected a JSON object")
+        from fallgen.policies.agent import is_run
+
+        if is_run(agent):  # a run of fallgen train, or one of its checkpoints
+            agent, kwargs = "fallgen.policies.agent:load_run", {"run": agent, **kwargs}
         try:
             load_factory(agent)  # fail here, in one line, not in a worker
         except ValueError as e:

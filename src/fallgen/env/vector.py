@@ -136,16 +136,24 @@ class VectorEnv(AsyncVectorEnv):
         super().close_extras(timeout, terminate)
 
 
+def wrapped(make: Any, wrapper: Any) -> Any:
+    """``wrapper(make())``: an environment made in a worker and wrapped there (picklable with
+    picklable arguments)."""
+    return wrapper(make())
+
+
 def make_vec(dataset: str | Path, num_envs: int = 2, split: str | None = None, *,
              context: str = "spawn", autoreset_mode: Any = None, rank: int = 0,
-             world_size: int = 1, **kwargs: Any) -> VectorEnv:
+             world_size: int = 1, wrapper: Any = None, **kwargs: Any) -> VectorEnv:
     """``num_envs`` environments of ``dataset`` in worker processes (``context``: ``"spawn"``
     or ``"forkserver"``; a forked process would inherit the parent's GL state). Environment i
     takes slice ``rank * num_envs + i`` of ``world_size * num_envs`` of the selection, so the
     environments of one machine, and those of ``world_size`` machines each given its
     ``rank``, replay disjoint episodes. ``kwargs`` go to
     :class:`~fallgen.env.fallen_objects.FallenObjectsEnv` (sensors, reward, claims, ...);
-    ``autoreset_mode``: Gymnasium's (default ``NEXT_STEP``)."""
+    ``autoreset_mode``: Gymnasium's (default ``NEXT_STEP``). ``wrapper``: a picklable callable
+    applied to each environment in its worker (e.g. :class:`fallgen.env.wrappers.
+    CompactObservation`: only the small observations cross to this process)."""
     if num_envs < 1:
         raise ValueError(f"num_envs={num_envs}: at least 1")
     if context not in ("spawn", "forkserver"):
@@ -156,6 +164,8 @@ def make_vec(dataset: str | Path, num_envs: int = 2, split: str | None = None, *
     fns = [functools.partial(FallenObjectsEnv, str(dataset), split, rank=rank * num_envs + i,
                              world_size=world_size * num_envs, **kwargs)
            for i in range(num_envs)]
+    if wrapper is not None:
+        fns = [functools.partial(wrapped, f, wrapper) for f in fns]
     extra = {} if autoreset_mode is None else {"autoreset_mode": autoreset_mode}
     return VectorEnv(fns, shared_memory=True, context=context, **extra)
 

@@ -104,37 +104,35 @@ def log_mel(clip: np.ndarray, sample_rate: int, bands: int = BANDS) -> np.ndarra
     return np.clip((db - DB_FLOOR) / (DB_CEIL - DB_FLOOR), 0.0, 1.0).astype(np.float32).ravel()
 
 
-class CompactObservation(gym.Wrapper):
-    """A :class:`~fallgen.env.fallen_objects.FallenObjectsEnv` (or a wrapper of it) with the
-    observations of the module's list: small 8-bit images, the clip as log-mel features.
-    ``size``: the images' side; ``depth_max_m``: depth at level 255; ``bands``: mel bands
-    per ear; ``hold_audio``: the step-0 clip's features at every step of the episode."""
+class Compactor:
+    """The conversion :class:`CompactObservation` applies, without an environment: for an agent
+    that is handed the environment's own observations (``fallgen evaluate``) and must see
+    what it was trained on. ``spaces_in``: the environment's observation spaces (key -> space);
+    ``sample_rate`` of the clips (needed with ``audio``); the rest as
+    :class:`CompactObservation`. Call it with each observation, ``first=True`` for a reset's
+    (the held audio features are replaced then)."""
 
-    def __init__(self, env: gym.Env, size: int = SIZE, depth_max_m: float = DEPTH_MAX_M,
-                 bands: int = BANDS, hold_audio: bool = True) -> None:
-        super().__init__(env)
+    def __init__(self, spaces_in: dict[str, spaces.Space], sample_rate: int | None = None,
+                 size: int = SIZE, depth_max_m: float = DEPTH_MAX_M, bands: int = BANDS,
+                 hold_audio: bool = True) -> None:
         if size < 8 or depth_max_m <= 0 or bands < 1:
             raise ValueError(f"size={size} (>= 8), depth_max_m={depth_max_m} (> 0), "
                              f"bands={bands} (>= 1)")
         self.size, self.depth_max_m, self.bands = int(size), float(depth_max_m), int(bands)
         self.hold_audio = hold_audio
-        inner = env.observation_space
-        if not isinstance(inner, spaces.Dict):
-            raise TypeError("CompactObservation wraps the Fallen Objects environment's Dict "
-                            "observations")
-        base = env.unwrapped
-        if "audio" in inner.spaces:
-            ids = getattr(base, "ids", None)
-            self.sample_rate = int(base.ds.row(ids[0])["sample_rate"]) if ids else 44100
-        if "category_seg" in inner.spaces and inner["category_seg"].high.max() + 1 > 255:
-            raise ValueError(f"{int(inner['category_seg'].high.max()) + 1} categories: more "
-                             "than a uint8 segmentation holds")
+        self.sample_rate = None if sample_rate is None else int(sample_rate)
+        if "audio" in spaces_in and self.sample_rate is None:
+            raise ValueError("audio: the clips' sample_rate is needed")
+        seg = spaces_in.get("category_seg")
+        if seg is not None and seg.high.max() + 1 > 255:
+            raise ValueError(f"{int(seg.high.max()) + 1} categories: more than a uint8 "
+                             "segmentation holds")
         image = spaces.Box(0, 255, (self.size, self.size, 1), np.uint8)
         made = {"rgb": spaces.Box(0, 255, (self.size, self.size, 3), np.uint8),
                 "depth": image, "category_seg": image,
                 "audio": spaces.Box(0.0, 1.0, (2 * self.bands,), np.float32)}
         out = {}
-        for k, s in inner.spaces.items():
+        for k, s in spaces_in.items():
             if k in made:
                 out[k] = made[k]
             elif k in PASSED:
@@ -142,7 +140,8 @@ class CompactObservation(gym.Wrapper):
             else:
                 raise ValueError(f"observation {k!r}: CompactObservation knows "
                                  f"{', '.join(list(made) + list(PASSED))}")
-        self.observation_space = spaces.Dict(out)
+        #: the compact observations' spaces (key -> space, in the environment's order)
+        self.spaces = out
         self._held: np.ndarray | None = None
 
     def _image(self, a: np.ndarray, nearest: bool = False) -> np.ndarray:
@@ -157,10 +156,10 @@ class CompactObservation(gym.Wrapper):
             self._held = log_mel(clip, self.sample_rate, self.bands)
         return self._held.copy()
 
-    def observation(self, obs: dict[str, Any], first: bool = False) -> dict[str, Any]:
+    def __call__(self, obs: dict[str, Any], first: bool = False) -> dict[str, Any]:
         """The compact form of one of the environment's observations (``first``: a reset's)."""
         out: dict[str, Any] = {}
-        for k in self.observation_space.spaces:
+        for k in self.spaces:
             v = obs[k]
             if k == "rgb":
                 out[k] = self._image(v)
@@ -175,6 +174,37 @@ class CompactObservation(gym.Wrapper):
             else:
                 out[k] = v
         return out
+
+
+class CompactObservation(gym.Wrapper):
+    """A :class:`~fallgen.env.fallen_objects.FallenObjectsEnv` (or a wrapper of it) with the
+    observations of the module's list: small 8-bit images, the clip as log-mel features.
+    ``size``: the images' side; ``depth_max_m``: depth at level 255; ``bands``: mel bands
+    per ear; ``hold_audio``: the step-0 clip's features at every step of the episode (the
+    conversion itself is :class:`Compactor`)."""
+
+    def __init__(self, env: gym.Env, size: int = SIZE, depth_max_m: float = DEPTH_MAX_M,
+                 bands: int = BANDS, hold_audio: bool = True) -> None:
+        super().__init__(env)
+        inner = env.observation_space
+        if not isinstance(inner, spaces.Dict):
+            raise TypeError("CompactObservation wraps the Fallen Objects environment's Dict "
+                            "observations")
+        rate = None
+        if "audio" in inner.spaces:
+            base = env.unwrapped
+            ids = getattr(base, "ids", None)
+            rate = int(base.ds.row(ids[0])["sample_rate"]) if ids else 44100
+        self.compactor = Compactor(dict(inner.spaces), rate, size, depth_max_m, bands,
+                                   hold_audio)
+        c = self.compactor
+        self.size, self.depth_max_m, self.bands = c.size, c.depth_max_m, c.bands
+        self.hold_audio, self.sample_rate = hold_audio, rate
+        self.observation_space = spaces.Dict(c.spaces)
+
+    def observation(self, obs: dict[str, Any], first: bool = False) -> dict[str, Any]:
+        """The compact form of one of the environment's observations (``first``: a reset's)."""
+        return self.compactor(obs, first)
 
     def reset(self, **kwargs: Any) -> tuple[dict[str, Any], dict[str, Any]]:
         obs, info = self.env.reset(**kwargs)
@@ -198,5 +228,5 @@ def compact_env(dataset: str | Path, split: str | None = None, *, size: int = SI
     return CompactObservation(env, size, depth_max_m, bands, hold_audio)
 
 
-__all__ = ["CompactObservation", "compact_env", "log_mel", "band_power", "mel_filters", "SIZE",
+__all__ = ["CompactObservation", "Compactor", "compact_env", "log_mel", "band_power", "mel_filters", "SIZE",
            "DEPTH_MAX_M", "BANDS", "DB_FLOOR", "DB_CEIL"]

@@ -196,7 +196,8 @@ def _make_env(dataset: str, ids: Sequence[int], ref: AgentRef, claims: int, rewa
     world = load_world(data_dir)
     agent = make_agent(ref, world_category_labels(world), world.categories.ids("target"))
     env = FallenObjectsEnv(dataset, episode_ids=ids, sensors=agent_sensors(agent), claims=claims,
-                           reward=reward, world=world)
+                           reward=reward, world=world,
+                           oracle_found=bool(getattr(agent, "oracle_found", False)))
     return env, agent
 
 

@@ -1,0 +1,134 @@
+"""``fallgen train {ppo,dt,savi} DATASET -o RUN``: the paper's learned policies
+(:mod:`fallgen.policies`), trained in pieces; registered on the main app by :mod:`fallgen.cli`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from fallgen.errors import InputError
+
+#: Settings a resumed run may be given anew (the budget, how often it checkpoints, how many
+#: environment workers); any other differing from the run's is refused.
+MUTABLE = ("timesteps", "steps", "checkpoint_every", "envs", "eval_every", "eval_episodes")
+
+
+def parse_sets(items: list[str] | None) -> dict[str, str]:
+    """``["k=v", ...]`` -> {k: v}; a malformed item is a one-line error."""
+    out: dict[str, str] = {}
+    for item in items or []:
+        k, sep, v = item.partition("=")
+        if not sep or not k.strip():
+            raise InputError("<command line>", "--set", f"{item!r}: expected NAME=VALUE")
+        out[k.strip()] = v.strip()
+    return out
+
+
+def _module(kind: str):
+    import importlib
+
+    return importlib.import_module(f"fallgen.policies.{kind}")
+
+
+def register(app: typer.Typer, console) -> None:
+    @app.command("train")
+    def train(
+        kind: Annotated[str, typer.Argument(help="ppo (oracle found), dt (Decision "
+                                            "Transformer) or savi.", metavar="KIND")],
+        dataset: Annotated[Path, typer.Argument(help="A dataset directory.",
+                                                metavar="DATASET")],
+        out: Annotated[Path, typer.Option("--out", "-o", help="The run directory (resumed "
+                                          "from its last checkpoint when it has one).")],
+        device: Annotated[str, typer.Option(help="cpu or cuda.")] = "cpu",
+        seed: Annotated[int, typer.Option(help="Seeds the weights, the episodes' order "
+                                          "and the sampling.")] = 0,
+        minutes: Annotated[Optional[float], typer.Option(
+            help="Stop after this long with a checkpoint (run again to go on; default: the "
+                 "kind's budget: dt 60, ppo and savi 180).", show_default=False)] = None,
+        envs: Annotated[Optional[int], typer.Option(
+            min=0, help="Environment worker processes (ppo, savi; 0: one in this process; "
+                        "default 2).", show_default=False)] = None,
+        budget: Annotated[Optional[int], typer.Option(
+            min=1, help="The run's total budget: environment steps (ppo, savi) or gradient "
+                        "steps (dt).", show_default=False)] = None,
+        room_kind: Annotated[Optional[str], typer.Option(
+            help="Train on this room kind only (kitchen or study: Table 2's cross-scene "
+                 "runs).", show_default=False)] = None,
+        expert: Annotated[Optional[Path], typer.Option(
+            help="dt: the expert trajectories (fallgen export-expert --sensors "
+                 "rgb,depth,audio,pose,category_seg; default: exported into RUN/expert).",
+            show_default=False)] = None,
+        threads: Annotated[int, typer.Option(min=1, help="torch's threads.")] = 1,
+        set_: Annotated[Optional[list[str]], typer.Option(
+            "--set", help="A setting NAME=VALUE (repeatable; the names are in the kind's "
+                          "module docstring and run.json).", show_default=False)] = None,
+    ) -> None:
+        """Train the paper's learned policies: PPO with the oracle found, the Decision
+        Transformer on the expert's trajectories, SAVi. Checkpoints, RUN/log.csv and
+        RUN/curve.png; score with fallgen evaluate DATASET --agent RUN."""
+        from fallgen.policies import KINDS
+        from fallgen.policies.runs import Run, dataset_hash
+
+        if kind not in KINDS:
+            raise InputError("<command line>", "KIND", f"{kind!r}: one of {', '.join(KINDS)}")
+        if room_kind is not None and room_kind not in ("kitchen", "study"):
+            raise InputError("<command line>", "--room-kind", f"{room_kind!r}: kitchen or "
+                             "study")
+        if expert is not None and kind != "dt":
+            raise InputError("<command line>", "--expert", "only for dt")
+        if envs is not None and kind == "dt":
+            raise InputError("<command line>", "--envs", "only for ppo and savi")
+        given = parse_sets(set_)
+        if envs is not None:
+            given["envs"] = str(envs)
+        if budget is not None:
+            given["steps" if kind == "dt" else "timesteps"] = str(budget)
+        if room_kind is not None:
+            given["room_kind"] = room_kind
+        try:
+            from fallgen.policies.runtime import resolve_device
+
+            resolve_device(device)
+            mod = _module(kind)
+        except ImportError as e:
+            raise InputError("<command line>", "KIND", str(e)) from None
+        except ValueError as e:
+            raise InputError("<command line>", "--device", str(e)) from None
+        try:
+            cfg = mod.settings(given)
+        except ValueError as e:
+            raise InputError("<command line>", "--set", str(e)) from None
+        from fallgen.cli_common import open_dataset
+
+        ds = open_dataset(dataset)
+        digest = dataset_hash(dataset)
+        rows = ds.rows()
+        if not rows:
+            raise InputError(dataset, "data/", "no episodes")
+        config = cfg.to_dict() | {"sample_rate": int(rows[0]["sample_rate"])}
+        typed = {k: config[k] for k in given}
+        run = Run(out)
+        fixed = {k: v for k, v in typed.items() if k not in MUTABLE}
+        config = run.start(kind, dataset, digest, config, fixed)
+        config.update({k: v for k, v in typed.items() if k in MUTABLE})
+        extra = {"expert": expert} if kind == "dt" else {}
+        limit = minutes if minutes is not None else mod.DEFAULT_MINUTES
+        try:
+            res = mod.train(dataset, run, config, digest, seed=seed, device=device,
+                            minutes=limit, threads=threads, **extra)
+        except ValueError as e:
+            raise InputError("<command line>", "DATASET", str(e)) from None
+        h, m = divmod(int(res["wall_s"]) // 60, 60)
+        what = "timesteps" if kind != "dt" else "gradient steps"
+        state = "budget spent" if res["done"] else \
+            f"stopped after {limit:g} min: run the same command again to go on"
+        console.print(f"{kind}: update {res['updates']}, {res.get('timesteps', 0)} {what}, "
+                      f"{h}:{m:02d} h in all ({state}); checkpoint {res['checkpoint']}; "
+                      f"log {run.log_path}; curve {run.curve_path}", markup=False,
+                      highlight=False, soft_wrap=True)
+
+
+__all__ = ["register", "parse_sets", "MUTABLE"]

@@ -1,0 +1,132 @@
+"""PPO with the oracle found on the tiny build: a few updates through ``fallgen train ppo``,
+checkpoints and the log, a resumed run that goes on from its checkpoint (timesteps, the
+optimiser's step count, the log's rows), ``fallgen evaluate --agent RUN`` scoring it with the
+oracle, a run of another dataset refused, and the encoder's input the wrapper's own."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("sb3_contrib")
+pytestmark = pytest.mark.xdist_group("tiny_build")
+
+SMALL = ("--envs", "0", "--set", "n_steps=16", "--set", "batch_size=16", "--set", "n_epochs=1",
+         "--set", "checkpoint_every=1", "--set", "lstm_hidden=32")
+
+
+def _adam_steps(ck) -> float:
+    return max(float(s["step"]) for s in ck["state"]["optimizer"]["state"].values())
+
+
+def test_ppo_trains_resumes_and_is_evaluated(tiny_dataset, tmp_path, cli, capsys):
+    import json
+
+    import torch
+
+    from fallgen.dataset.manifest import manifest_sha256
+    from fallgen.policies.runs import load_checkpoint, read_log
+
+    run = tmp_path / "ppo"
+    assert cli("train", "ppo", str(tiny_dataset), "-o", str(run), "--budget", "32",
+               *SMALL) == 0
+    cks = sorted((run / "checkpoints").glob("ckpt-*.pt"))
+    assert [p.name for p in cks] == ["ckpt-000001.pt", "ckpt-000002.pt"]
+    digest = manifest_sha256(tiny_dataset)
+    c1, c2 = (load_checkpoint(p, "ppo", digest) for p in cks)
+    assert (c1["timesteps"], c2["timesteps"]) == (16, 32)
+    changed = [k for k, v in c1["state"]["policy"].items()
+               if not torch.equal(v, c2["state"]["policy"][k])]
+    assert changed  # an update changed the policy
+    rows = read_log(run / "log.csv")
+    assert [int(r["update"]) for r in rows] == [1, 2]
+    assert (run / "curve.png").stat().st_size > 1000
+    # resumed: the same run goes on from update 2 (Adam's step count goes on, the log keeps
+    # its rows and adds one)
+    assert cli("train", "ppo", str(tiny_dataset), "-o", str(run), "--budget", "48",
+               "--envs", "0") == 0
+    c3 = load_checkpoint(run / "checkpoints" / "ckpt-000003.pt", "ppo", digest)
+    assert c3["timesteps"] == 48
+    assert _adam_steps(c3) == _adam_steps(c2) + 1 == 3
+    rows3 = read_log(run / "log.csv")
+    assert rows3[:2] == rows and int(rows3[2]["update"]) == 3
+    # scored as every agent is, with the oracle found: only moves, never a found action
+    out = tmp_path / "eval"
+    assert cli("evaluate", str(tiny_dataset), "--agent", str(run), "--split", "test",
+               "--workers", "1", "-o", str(out)) == 0
+    eps = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
+    assert len(eps) == 2
+    assert all(max(e["actions"]) < 5 for e in eps)
+    assert all(e["claims"] == 0 for e in eps)
+    assert all(e["success"] == (e["outcome"] == "found") for e in eps)
+    capsys.readouterr()
+
+
+def test_another_datasets_run_is_refused(tiny_dataset, tmp_path, cli, capsys):
+    """A run made on the tiny build, asked to go on with a dataset whose manifest differs:
+    one line naming run.json and manifest_sha256, exit 2; its checkpoint is refused too."""
+    import shutil
+
+    from fallgen.errors import InputError
+    from fallgen.policies.runs import load_checkpoint
+
+    other = tmp_path / "other"
+    other.mkdir()
+    for d in ("data", "media"):
+        (other / d).symlink_to(tiny_dataset / d)
+    for f in tiny_dataset.iterdir():
+        if f.is_file():
+            shutil.copy(f, other / f.name)
+    (other / "manifest.json").write_text((tiny_dataset / "manifest.json").read_text()
+                                         .replace("{", "{\n", 1))
+    run = tmp_path / "run"
+    assert cli("train", "ppo", str(tiny_dataset), "-o", str(run), "--budget", "16",
+               *SMALL) == 0
+    capsys.readouterr()
+    assert cli("train", "ppo", str(other), "-o", str(run), "--budget", "32") == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "run.json: manifest_sha256" in err, err
+    from fallgen.dataset.manifest import manifest_sha256
+
+    ck = run / "checkpoints" / "ckpt-000001.pt"
+    with pytest.raises(InputError, match="ckpt-000001.pt: manifest_sha256"):
+        load_checkpoint(ck, "ppo", manifest_sha256(other))
+    with pytest.raises(InputError, match="kind"):
+        load_checkpoint(ck, "dt")
+
+
+def test_the_agent_sees_what_training_saw(tiny_dataset):
+    """The evaluated agent's conversion of the environment's own observations equals the
+    training wrapper's, and the encoder reads both batched as the policy does."""
+    import torch
+
+    from fallgen.env import FallenObjectsEnv
+    from fallgen.env.wrappers import CompactObservation
+    from fallgen.policies import SENSORS
+    from fallgen.policies.encoder import FEATURES_DIM, ObservationEncoder, compactor, \
+        to_tensors
+
+    raw = FallenObjectsEnv(tiny_dataset, "test", sensors=SENSORS)
+    wrapped = CompactObservation(FallenObjectsEnv(tiny_dataset, "test", sensors=SENSORS))
+    try:
+        sr = int(raw.ds.row(raw.ids[0])["sample_rate"])
+        mine = compactor(sr)
+        o, _ = raw.reset(seed=0)
+        w, _ = wrapped.reset(seed=0)
+        for step in range(3):
+            if step:
+                o, *_ = raw.step(1)
+                w, *_ = wrapped.step(1)
+            c = mine(o, first=step == 0)
+            assert set(c) == set(w)
+            for k in w:
+                assert np.array_equal(c[k], w[k]), k
+        enc = ObservationEncoder()
+        t = to_tensors({k: np.stack([c[k], w[k]]) for k in c})
+        assert t["rgb"].shape == (2, 3, 84, 84) and t["category_seg"].shape == (2, 1, 84, 84)
+        with torch.no_grad():
+            f = enc(t)
+        assert f.shape == (2, FEATURES_DIM) and torch.equal(f[0], f[1])
+    finally:
+        raw.close()
+        wrapped.close()
