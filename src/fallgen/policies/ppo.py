@@ -21,7 +21,7 @@ processes for ~10^7 steps).
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +33,7 @@ from stable_baselines3.common.vec_env import VecTransposeImage
 
 from fallgen.policies import SENSORS
 from fallgen.policies.encoder import FEATURES_DIM, ObservationEncoder, compactor, to_tensors
+from fallgen.policies.runs import apply_overrides
 from fallgen.policies.sb3_loop import OnPolicySettings, train_on_env
 
 #: The moves: the policy's actions (indices 0..4 of fallgen.nav.agent.ACTIONS).
@@ -52,30 +53,7 @@ class PpoSettings(OnPolicySettings):
 def settings(overrides: Mapping[str, Any] | None = None) -> PpoSettings:
     """The default settings with ``overrides`` (name -> value, converted to each field's
     type); ValueError naming an unknown or malformed one."""
-    return _apply(PpoSettings(), overrides)
-
-
-def _apply(obj, overrides):
-    names = {f.name: f for f in fields(obj)}
-    for k, v in (overrides or {}).items():
-        if k not in names:
-            raise ValueError(f"{k}: unknown setting (one of {', '.join(names)})")
-        cur = getattr(obj, k)
-        try:
-            if v is None or (isinstance(v, str) and v.lower() in ("none", "")):
-                val = None
-            elif isinstance(cur, bool):
-                val = v if isinstance(v, bool) else str(v).lower() in ("1", "true", "yes")
-            elif isinstance(cur, int):
-                val = int(float(v))
-            elif isinstance(cur, float):
-                val = float(v)
-            else:
-                val = v
-        except (TypeError, ValueError):
-            raise ValueError(f"{k}={v!r}: not a {type(cur).__name__}") from None
-        setattr(obj, k, val)
-    return obj
+    return apply_overrides(PpoSettings(), overrides)
 
 
 class EncoderExtractor(BaseFeaturesExtractor):

@@ -150,6 +150,33 @@ def find_checkpoint(run_or_file: str | Path) -> Path:
     return last
 
 
+def apply_overrides(obj: Any, overrides: Mapping[str, Any] | None) -> Any:
+    """The settings dataclass ``obj`` with ``overrides`` (name -> value, converted to each
+    field's type); ValueError naming an unknown or malformed one."""
+    from dataclasses import fields
+
+    names = {f.name: f for f in fields(obj)}
+    for k, v in (overrides or {}).items():
+        if k not in names:
+            raise ValueError(f"{k}: unknown setting (one of {', '.join(names)})")
+        cur = getattr(obj, k)
+        try:
+            if v is None or (isinstance(v, str) and v.lower() in ("none", "")):
+                val = None
+            elif isinstance(cur, bool):
+                val = v if isinstance(v, bool) else str(v).lower() in ("1", "true", "yes")
+            elif isinstance(cur, int):
+                val = int(float(v))
+            elif isinstance(cur, float):
+                val = float(v)
+            else:
+                val = v
+        except (TypeError, ValueError):
+            raise ValueError(f"{k}={v!r}: not a {type(cur).__name__}") from None
+        setattr(obj, k, val)
+    return obj
+
+
 # --- the log and the curve --------------------------------------------------------------------
 
 class CsvLog:
@@ -254,5 +281,5 @@ def curve_png(path: str | Path, rows: Sequence[Mapping[str, Any]], x: str,
     return write_png(img, path)
 
 
-__all__ = ["FORMAT", "KEEP", "Run", "CsvLog", "dataset_hash", "load_checkpoint",
+__all__ = ["FORMAT", "KEEP", "Run", "apply_overrides", "CsvLog", "dataset_hash", "load_checkpoint",
            "find_checkpoint", "read_log", "curve_png"]
