@@ -5,7 +5,7 @@ the later stages (physics, audio, vision, navigation, dataset writer). The CLI i
 thin layer over these library functions.
 """
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 import os as _os
 
