@@ -24,7 +24,7 @@ Config = Annotated[Path, typer.Option("--config", "-c", help="Build config (conf
 Out = Annotated[Optional[Path], typer.Option(help="Dataset directory (default: the config's "
                                              "build.out).")]
 Executor = Annotated[str, typer.Option(help="'local' (a process pool) or 'ray' (one Ray task "
-                                       "per unit; pip install 'fallgen[ray]').")]
+                                       "per unit; pip install 'fallgen\\[ray]').")]
 RayAddress = Annotated[Optional[str], typer.Option(help="Ray cluster to join (default: start a "
                                                    "local one).")]
 ShardIndex = Annotated[Optional[int], typer.Option(

@@ -48,7 +48,7 @@ class GenerateConfig:
     #: episode takes its next event (skip reason "inaudible"); 0 keeps every fall
     min_heard_peak_db_spl: float = 35.0
     #: draw the views with textures and a shadow-casting light (world.scene.LOOK); false:
-    #: flat colours (the paper-size build 12.9 instead of 14.7 min; README: How the rooms look)
+    #: flat colours (cheaper to render: docs/rendering.md)
     appearance: bool = True
     #: draw every episode's views with a look of its own (textures, colours, light: world.look),
     #: from the episode's seed; needs appearance. Off: every episode of a room looks the same

@@ -213,7 +213,7 @@ def test_hard_heavy_impact_radiates_the_measured_share(materials):
     1973, Akay 1978): the tapping hammer on the tiled slab, whose level matches EN ISO 12354-2,
     does. A slab takes a share growing with the impactor's mass (Zener), so lighter bodies
     radiate less of theirs through it: the reason a build of 55 g objects has a median of
-    ~1e-5 (README)."""
+    ~1e-5 (docs/physics.md, the energy account)."""
     plate = surface_plate(materials.surface("ceramic_tile"), materials)
     steel = materials.object("metal")
     hammer = radiated_share(plate, steel, 0.5, 0.5, math.sqrt(2 * 9.81 * 0.04))

@@ -14,7 +14,7 @@ import pytest
 REPO = Path(__file__).resolve().parents[2]
 
 
-#: The environment's goals (README, Benchmarks; bench/env_bench.py's docstring): rgb + depth
+#: The environment's goals (docs/performance.md; bench/env_bench.py's docstring): rgb + depth
 #: at >= 100 steps a second on one core, 2 workers >= 1.8x one, a worker under 1 GB
 GOAL_STEPS_PER_S, GOAL_SPEEDUP, GOAL_WORKER_MB = 100.0, 1.8, 1024.0
 #: TDW's Magnebot environment: ~4-7 actions a second (shared/design/benchmark.md, published)

@@ -16,7 +16,7 @@ import pytest
 REPO = Path(__file__).resolve().parents[2]
 
 
-#: bench/full_build.py's goals (README, Benchmarks): the paper-size build in 15 minutes
+#: bench/full_build.py's goals (docs/performance.md): the paper-size build in 15 minutes
 #: (the original took ~8 hours), a worker under 1 GB
 GOAL_MIN, ORIGINAL_H, GOAL_WORKER_MB = 15.0, 8.0, 1024.0
 

@@ -11,7 +11,7 @@ import pytest
 
 from fallgen.env import SENSORS  # every sensor, oracles included
 
-#: The success rule's "visible" (README, The benchmark): at least 4 pixels of the object in view
+#: The success rule's "visible" (docs/benchmark.md): at least 4 pixels of the object in view
 VISIBLE_PIXELS = 4
 
 pytestmark = pytest.mark.xdist_group("tiny_build")

@@ -280,8 +280,8 @@ def test_a_full_disk_ends_in_one_line_and_a_rerun_completes(tiny_build, tmp_path
 
 
 def test_a_corrupt_modal_cache_entry_is_solved_again(tmp_path):
-    """A damaged .npz in the modal cache (a flipped byte: BadZipFile) is recomputed, as the
-    README says, not a crash of every build."""
+    """A damaged .npz in the modal cache (a flipped byte: BadZipFile) is recomputed, as
+    docs/dataset.md says, not a crash of every build."""
     import numpy as np
     import trimesh
 
