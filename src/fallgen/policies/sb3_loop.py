@@ -72,6 +72,8 @@ class LoopCallback(BaseCallback):
                  every: int, deadline: float, update: int, wall_s: float,
                  window: list[dict[str, float]], episodes: int, title: str,
                  on_update: Callable[[Any], dict[str, float]] | None = None) -> None:
+        """``on_update(model)``: called at each rollout's end (the rollout in the model's
+        buffer, before the update); what it returns goes into the update's row."""
         super().__init__()
         self.run, self.log, self.save_fn, self.every = run, log, save, max(1, int(every))
         self.deadline, self.update, self.wall_s0 = deadline, int(update), float(wall_s)
@@ -84,6 +86,7 @@ class LoopCallback(BaseCallback):
         self._rollout_t0 = self._t0
         self._rollout_steps0 = 0
         self._saved_at = -1
+        self._from_rollout: dict[str, float] = {}
 
     @property
     def wall_s(self) -> float:
@@ -114,8 +117,8 @@ class LoopCallback(BaseCallback):
         values = self.model.logger.name_to_value
         for k in TRAIN_KEYS:
             row[k] = float(values.get("train/" + k, float("nan")))
-        if self.on_update is not None:
-            row.update(self.on_update(self.model))
+        row.update(self._from_rollout)
+        self._from_rollout = {}
         self.log.append(row)
         if self.update % self.every == 0 or time.monotonic() >= self.deadline:
             self.checkpoint()
@@ -136,6 +139,10 @@ class LoopCallback(BaseCallback):
         if time.monotonic() >= self.deadline:
             self.checkpoint()
             self.stopped = True  # the rollout's first step ends the run (not counted)
+
+    def _on_rollout_end(self) -> None:
+        if self.on_update is not None:  # the rollout is in the buffer (until the next)
+            self._from_rollout = self.on_update(self.model)
 
     def _on_training_end(self) -> None:
         if not self.stopped:  # the budget is spent: the last update's row and checkpoint

@@ -24,10 +24,11 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
 
 def training_envs(dataset: str | Path, n: int, split: str | None = "train", *,
-                  seed: int = 0, room_kind: str | None = None, sensors=None,
+                  room_kind: str | None = None, sensors=None, wrapper: Any = None,
                   **env_kwargs: Any):
     """A Gymnasium vector env (same-step autoreset) of ``n`` workers (0: in this process) of
-    the compact environment, episodes shuffled; ``env_kwargs`` go to the environment."""
+    the compact environment (``wrapper``: another picklable wrapper, made in each worker),
+    episodes shuffled; ``env_kwargs`` go to the environment."""
     from gymnasium.vector import AutoresetMode, SyncVectorEnv
 
     from fallgen.env.fallen_objects import FallenObjectsEnv
@@ -37,12 +38,13 @@ def training_envs(dataset: str | Path, n: int, split: str | None = "train", *,
 
     kw = dict(sensors=tuple(sensors or SENSORS), order="shuffle", room_kind=room_kind,
               **env_kwargs)
+    wrapper = wrapper or CompactObservation
     if n <= 0:
         make = functools.partial(FallenObjectsEnv, str(dataset), split, **kw)
-        return SyncVectorEnv([functools.partial(wrapped, make, CompactObservation)],
+        return SyncVectorEnv([functools.partial(wrapped, make, wrapper)],
                              autoreset_mode=AutoresetMode.SAME_STEP)
     return make_vec(dataset, n, split, autoreset_mode=AutoresetMode.SAME_STEP,
-                    wrapper=CompactObservation, **kw)
+                    wrapper=wrapper, **kw)
 
 
 def _item(info: dict[str, Any], i: int) -> dict[str, Any]:
