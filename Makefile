@@ -9,15 +9,17 @@ export MUJOCO_GL ?= egl
 CONFIG ?= configs/full.toml
 WORKERS ?= $(shell nproc 2>/dev/null || echo 2)
 
-.PHONY: setup demo test test-fast bench bench-full loudness table assets rehearse generate dataset smoke clean lint
+.PHONY: setup demo test test-fast bench bench-full loudness table report assets rehearse generate dataset smoke clean lint
 
 setup: $(VENV)/.fallgen-installed
 $(VENV)/.fallgen-installed: pyproject.toml scripts/setup.sh
 	@VENV=$(VENV) scripts/setup.sh
 
-## demo: what exists so far: every room variant checked and drawn, one exported to MJCF,
-## the object catalogue listed. Grows into a small dataset as the pipeline stages land.
+## demo: every room variant checked and drawn, one exported to MJCF, the object catalogue drawn,
+## one room rehearsed, three falls' sounds, 8 episodes generated, validated, summarised and one
+## drawn; from scratch each time (demo/ is made again).
 demo: setup
+	rm -rf demo
 	$(FALLGEN) rooms check
 	$(FALLGEN) rooms show '*-m1' -o demo/rooms
 	$(FALLGEN) rooms export kitchen_galley-l1-m1 -o demo/kitchen_galley-l1-m1.xml
@@ -52,11 +54,15 @@ bench: setup
 	$(PY) bench/env_bench.py --dataset build/smoke | tee build/bench-env.json
 	$(PY) bench/appearance.py | tee build/bench-appearance.json
 	$(PY) bench/report.py build
+	$(PY) bench/provenance.py build/bench.json make bench
 
-## loudness: the floors under the ISO tapping machine (vs EN ISO 12354-2 and measured coverings), then the dry peak and Leq at 1 m of reference drops onto five floors
-## (the README's calibration table), ~2 min.
+## loudness: the floors under the ISO tapping machine (vs EN ISO 12354-2 and measured coverings),
+## then the dry peak and Leq at 1 m of reference drops onto five floors (docs/physics.md's
+## calibration tables; build/loudness.json), a few minutes.
 loudness: setup
-	$(PY) bench/loudness_table.py
+	@mkdir -p build
+	$(PY) bench/loudness_table.py --json build/loudness.json
+	$(PY) bench/provenance.py build/loudness.json make loudness
 
 ## bench-full: the paper-size build itself, timed (wall per phase, CPU, each worker's peak
 ## memory, file fingerprint), validated, then its generation again with one worker (the
@@ -64,6 +70,7 @@ loudness: setup
 bench-full: setup
 	@mkdir -p build
 	$(PY) bench/full_build.py --workers $(WORKERS) --one-worker | tee build/bench-full.json
+	$(PY) bench/provenance.py build/bench-full.json make bench-full
 	$(PY) bench/report.py build
 
 ## table: the paper's Table 1 and Table 2 on the paper-size build (made first when missing),
@@ -76,6 +83,14 @@ table: setup
 	@test -f $(TABLE_DATASET)/manifest.json || $(MAKE) dataset
 	$(FALLGEN) table $(TABLE_DATASET) -o build/table --episodes $(TABLE_EPISODES) \
 		--cross-episodes $(TABLE_CROSS) --workers $(WORKERS)
+	$(PY) bench/provenance.py build/table/table.json make table TABLE_DATASET=$(TABLE_DATASET) \
+		TABLE_EPISODES=$(TABLE_EPISODES) TABLE_CROSS=$(TABLE_CROSS)
+
+## report: the figures of README.md and docs/*.md made again from the JSON the targets above
+## wrote (build/bench.json, bench-full.json, loudness.json, full-stats.json, table/table.json),
+## each with its date, machine and command; a block whose JSON is absent is kept.
+report: setup
+	$(PY) bench/docs_report.py --build build
 
 assets: setup
 	$(FALLGEN) assets modes --workers $(WORKERS)
@@ -87,11 +102,12 @@ generate: setup
 	$(FALLGEN) generate --config $(CONFIG) --workers $(WORKERS)
 
 ## dataset: the paper-size build (64 room variants, 8000 episodes) from scratch, then validated.
-## Reruns resume. Many machines: see README (--shard-index/--num-shards, fallgen finalize).
+## Reruns resume. Many machines: docs/dataset.md (--shard-index/--num-shards, fallgen finalize).
 dataset: setup
 	$(FALLGEN) build --config configs/full.toml --workers $(WORKERS)
 	$(FALLGEN) validate build/full
 	$(FALLGEN) stats build/full --json build/full-stats.json
+	$(PY) bench/provenance.py build/full-stats.json make dataset
 
 ## smoke: a tiny build (two rooms, 24 episodes), validated; CI runs it besides the tests.
 smoke: setup

@@ -3,14 +3,16 @@ parquet, a tiled and a floorboard floor, a rug on tiles and a thin carpet, as th
 renders them (the rehearsal's contact recorder, then :class:`fallgen.audio.fall.FallRenderer`).
 Prints two Markdown tables: the floors under the ISO tapping machine against building
 acoustics' measurements (:mod:`fallgen.audio.floors`), then the drops (peak and loudest 125 ms
-Leq, dB SPL re 20 uPa, and the share of the fall's energy radiated).
+Leq, dB SPL re 20 uPa, and the share of the fall's energy radiated); with ``--json FILE`` also
+writes both as JSON (``floors``, ``drops``: what ``make report`` puts in docs/physics.md).
 
-    python bench/loudness_table.py [--heights 0.75 1.5]
+    python bench/loudness_table.py [--heights 0.75 1.5] [--json build/loudness.json]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 
@@ -80,9 +82,10 @@ def _cell(x, fmt: str = "{:.0f}") -> str:
     return "-" if x is None else fmt.format(x)
 
 
-def floors_table(world) -> None:
+def floors_table(world) -> list[dict]:
     """Every floor surface under the ISO 10140-5 tapping machine: L_n,w (ISO 717-2) beside EN
     ISO 12354-2's bare-floor law, and a covering's Delta L_w beside its measured range."""
+    rows = []
     print("| floor | structure (m'') | L_n,w | bare structure L_n,w | EN ISO 12354-2 bare "
           "| Delta L_w | measured Delta L_w |")
     print("|---|---|---|---|---|---|---|")
@@ -95,14 +98,24 @@ def floors_table(world) -> None:
               f"({c.mass_per_area:.0f} kg/m2) | {c.rating_db} | {_cell(c.bare_rating_db)} | "
               f"{_cell(c.bare_reference_db, '{:.1f}')} | {_cell(c.improvement_db)} | "
               f"{'-' if rng is None else f'{rng[0]:g}-{rng[1]:g}'} |", flush=True)
+        rows.append({"floor": s.name, "structure_mm": round(s.structure_thickness_m * 1000),
+                     "structure_material": s.structure_material,
+                     "mass_per_area_kg_m2": round(c.mass_per_area, 1),
+                     "rating_db": c.rating_db, "bare_rating_db": c.bare_rating_db,
+                     "bare_reference_db": c.bare_reference_db,
+                     "improvement_db": c.improvement_db,
+                     "measured_improvement_db": None if rng is None else list(rng)})
+    return rows
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--heights", type=float, nargs="+", default=[0.75, 1.5])
+    ap.add_argument("--json", type=Path, help="also write the tables as JSON here")
     args = ap.parse_args()
     world = load_world(REPO)
-    floors_table(world)
+    floors = floors_table(world)
+    drops = []
     print()
     renderer = FallRenderer(world, AudioSettings())
     print("| object (mass) | floor | drop | peak dB SPL | Leq 125 ms dB SPL | radiated / lost |")
@@ -117,6 +130,14 @@ def main() -> None:
                 ratio = radiated_energy_j(p, 44100) / renderer.energy_lost_j(ev)
                 print(f"| {label} ({mass * 1000:.0f} g) | {floor} | {h:g} m | {peak:.1f} | "
                       f"{leq:.1f} | {ratio:.1e} |", flush=True)
+                drops.append({"object": label, "mass_g": round(mass * 1000), "floor": floor,
+                              "room_variant": vid, "drop_m": h, "peak_db_spl": round(peak, 1),
+                              "leq_125ms_db_spl": round(leq, 1),
+                              "radiated_over_lost": float(f"{ratio:.2e}")})
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps({"heights_m": args.heights, "floors": floors,
+                                         "drops": drops}, indent=1, default=float) + "\n")
 
 
 if __name__ == "__main__":

@@ -22,7 +22,8 @@ def _last_json(path: Path) -> dict | None:
 def main() -> None:
     d = Path(sys.argv[1] if len(sys.argv) > 1 else "build")
     parts = {p.stem.removeprefix("bench-"): _last_json(p)
-             for p in sorted(d.glob("bench-*.json"))}
+             for p in sorted(d.glob("bench-*.json"))
+             if not p.name.endswith(".provenance.json")}  # what made them: provenance.py
     parts = {k: v for k, v in parts.items() if v}
     head: dict = {}
     b = parts.get("build", {})
