@@ -332,6 +332,31 @@ def table2(src) -> str | None:
                     "paper SR / SPL / SNA"], rows) + "\n" + s.stamp())
 
 
+#: (label, key, format) of the audio module's scores
+AUDIO_SCORES = (("category, top-1", "category_top1", "{:.3f}"),
+                ("category, top-5", "category_top5", "{:.3f}"),
+                ("audio material, top-1", "material_top1", "{:.3f}"),
+                ("azimuth, median error", "azimuth_median_error_deg", "{:.1f} deg"),
+                ("lateral angle (front and back folded), median error",
+                 "lateral_median_error_deg", "{:.1f} deg"),
+                ("position, median error", "position_median_error_m", "{:.2f} m"),
+                ("distance, rank correlation", "distance_rank_correlation", "{:.3f}"))
+
+
+def audio_module(src) -> str | None:
+    """The auditory perception module on Table 1's test episodes, beside a prior that does
+    not listen and chance."""
+    s = src["table"]
+    a = (s.data or {}).get("audio", {}).get("all_on_test") if s.present else None
+    if not a:
+        return None
+    fmt = lambda d, k, f: "-" if d.get(k) is None else f.format(d[k])  # noqa: E731
+    rows = [[label, f"**{fmt(a, key, f)}**", fmt(a.get("prior", {}), key, f),
+             fmt(a.get("chance", {}), key, f)] for label, key, f in AUDIO_SCORES]
+    return (_table(["from the step-0 clip", "model", "prior (no audio)", "chance"], rows)
+            + f"\n{a.get('episodes', '?')} test episodes.\n\n" + s.stamp())
+
+
 def full_build(src) -> str | None:
     s = src["bench_full"]
     if not s.present:
@@ -419,7 +444,8 @@ RENDERERS: dict[str, Callable[[dict], str | None]] = {
     "results": results, "schema-columns": schema_columns, "schema-arrays": schema_arrays,
     "dataset-stats": dataset_stats, "goals": goals, "energy-by-material": energy_by_material,
     "floors": floors, "drops": drops, "rt60": rt60, "appearance": appearance,
-    "table1": table1, "table2": table2, "full-build": full_build, "benches": benches,
+    "table1": table1, "table2": table2, "audio-module": audio_module,
+    "full-build": full_build, "benches": benches,
 }
 
 
@@ -455,6 +481,7 @@ def _needs(block: str) -> tuple[str, ...]:
             "goals": ("stats",), "energy-by-material": ("stats",), "rt60": ("stats",),
             "floors": ("loudness",), "drops": ("loudness",), "appearance": ("bench",),
             "benches": ("bench",), "table1": ("table",), "table2": ("table",),
+            "audio-module": ("table",),
             "full-build": ("bench_full",)}.get(block, ())
 
 

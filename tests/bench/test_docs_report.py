@@ -65,7 +65,13 @@ TABLE = {
         "kitchen_to_study": {"success": 0.3311, "spl": 0.24, "sna": 0.22, "n": 200,
                              "ci95": {"success": [0.26, 0.39]}},
     },
-    "audio": {}, "timings_s": {"total": 2000.0},
+    "audio": {"all_on_test": {
+        "episodes": 300, "category_top1": 0.574, "category_top5": 0.819, "material_top1": 0.632,
+        "azimuth_median_error_deg": 18.24, "lateral_median_error_deg": 7.9,
+        "position_median_error_m": 1.53, "distance_rank_correlation": 0.456,
+        "chance": {"category_top1": 0.032, "azimuth_median_error_deg": 90.0},
+        "prior": {"category_top1": 0.03, "azimuth_median_error_deg": 28.8}}},
+    "timings_s": {"total": 2000.0},
 }
 FULL = {"workers": 2, "wall_min": {"total": 14.321, "rehearse": 3.5, "generate": 10.8},
         "goal_min": 15.0, "speedup_vs_original_8h": 33.5, "cpu_s": 1650.0, "cpu_use": 1.92,
@@ -159,6 +165,9 @@ def test_every_block_is_written_from_its_json_with_date_machine_and_command(tree
     assert "0.94 / 0.85 / 0.79" in results and "0.93 / 0.83 / 0.80" in results  # the paper's
     assert "| 0.94 [0.91, 0.96] | 0.85 | 0.79 | 300 |" in _block(root, "table1")
     assert "kitchen_to_study" not in _block(root, "table1")
+    audio = _block(root, "audio-module")
+    assert "| azimuth, median error | **18.2 deg** | 28.8 deg | 90.0 deg |" in audio
+    assert "| distance, rank correlation | **0.456** | - | - |" in audio
     assert "| 0.33 [0.26, 0.39] | 0.24 | 0.22 | 200 | 0.34 / 0.23 / 0.20 |" in \
         _block(root, "table2")
     goals = _block(root, "goals")
