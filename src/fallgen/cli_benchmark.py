@@ -60,7 +60,8 @@ def _open(dataset: Path):
 
 def _agent_ref(agent: str | None, agent_kwargs: str | None, actions: Path | None,
                baseline: str | None, oracles: str | None, audio_model: Path | None = None,
-               audio_top_k: int = 1, ds=None):
+               audio_top_k: int = 1, ds=None, vision_model: Path | None = None,
+               device: str = "cpu"):
     import json
 
     from fallgen.agents import BASELINES, ORACLES
@@ -73,10 +74,14 @@ def _agent_ref(agent: str | None, agent_kwargs: str | None, actions: Path | None
         raise InputError("<command line>", "--agent", "give exactly one of --agent "
                          "module:factory, --actions FILE, --baseline NAME"
                          + (f" (got {', '.join(given)})" if given else ""))
-    if oracles is not None and baseline != "modular":
-        raise InputError("<command line>", "--oracles", "only for --baseline modular")
+    if oracles is not None and baseline not in ("modular", "objectgoal"):
+        raise InputError("<command line>", "--oracles", "only for --baseline modular or "
+                         "objectgoal")
     if audio_model is not None and baseline != "modular":
         raise InputError("<command line>", "--audio-model", "only for --baseline modular")
+    if vision_model is not None and baseline not in ("modular", "objectgoal"):
+        raise InputError("<command line>", "--vision-model", "only for --baseline modular "
+                         "or objectgoal")
     if agent is not None:
         kwargs = {}
         if agent_kwargs:
@@ -105,18 +110,39 @@ def _agent_ref(agent: str | None, agent_kwargs: str | None, actions: Path | None
         raise InputError("<command line>", "--baseline", f"{baseline!r}: one of "
                          f"{', '.join(BASELINES)}")
     chosen: tuple[str, ...] = ()
-    if baseline == "modular":
-        chosen = ORACLES if oracles is None else tuple(o.strip() for o in oracles.split(",")
-                                                       if o.strip() and o.strip() != "none")
+    if baseline == "modular":  # default: every oracle; with a vision model, none
+        chosen = (ORACLES if vision_model is None else ()) if oracles is None else \
+            tuple(o.strip() for o in oracles.split(",") if o.strip() and o.strip() != "none")
         bad = sorted(set(chosen) - set(ORACLES))
         if bad:
             raise InputError("<command line>", "--oracles", f"{bad[0]!r}: choose from "
                              f"{', '.join(ORACLES)} (or none)")
         chosen = tuple(o for o in ORACLES if o in chosen)
-    kwargs = {}
+    if baseline == "objectgoal":
+        chosen = tuple(o.strip() for o in (oracles or "").split(",")
+                       if o.strip() and o.strip() != "none")
+        bad = sorted(set(chosen) - {"segmentation"})
+        if bad:
+            raise InputError("<command line>", "--oracles", f"{bad[0]!r}: Object-Goal "
+                             "takes only segmentation (or none)")
+        if not chosen and vision_model is None:
+            raise InputError("<command line>", "--vision-model", "Object-Goal needs eyes: "
+                             "--vision-model FILE or --oracles segmentation")
+    if vision_model is not None and "segmentation" in chosen:
+        raise InputError("<command line>", "--vision-model", "the agent's eyes where the "
+                         "segmentation oracle is off: drop one of --vision-model and "
+                         "--oracles segmentation")
+    kwargs: dict = {}
     if audio_model is not None:
         _check_audio_model(audio_model, ds)
         kwargs = {"audio_model": str(audio_model), "audio_top_k": int(audio_top_k)}
+    if vision_model is not None:
+        from fallgen.cli_vision import device_name, load_model
+
+        load_model(vision_model, ds)  # one line here for a bad file, not in every worker
+        kwargs["vision_model"] = str(vision_model)
+        if device != "cpu":
+            kwargs["vision_device"] = device_name(device)
     return AgentRef("baseline", baseline, oracles=chosen, kwargs=kwargs)
 
 
@@ -159,16 +185,22 @@ def register(app: typer.Typer, console: Console) -> None:
             help="Re-score action sequences: a JSON object of episode id -> list of actions, or an "
             "episodes.jsonl.")] = None,
         baseline: Annotated[Optional[str], typer.Option(
-            help="A reference agent: expert, random, modular.")] = None,
+            help="A reference agent: expert, random, modular, objectgoal.")] = None,
         oracles: Annotated[Optional[str], typer.Option(
             help="The modular agent's oracles: any of segmentation,category,location, or "
-            "none (default: all three).")] = None,
+            "none (default: all three; none with --vision-model). Object-Goal's: "
+            "segmentation or none (default).")] = None,
         audio_model: Annotated[Optional[Path], typer.Option(
             help="The modular agent's goal predictor where an oracle is off: a model file "
             "of fallgen audio-model train (category and where the fall was heard).")] = None,
         audio_top_k: Annotated[int, typer.Option(
             min=1, help="With --audio-model: the agent takes an object of any of the model's "
             "k likeliest categories for the fallen one.")] = 1,
+        vision_model: Annotated[Optional[Path], typer.Option(
+            help="The modular or objectgoal agent's eyes where the segmentation oracle is "
+            "off: a model file of fallgen vision-model train.")] = None,
+        device: Annotated[str, typer.Option(
+            help="Where --vision-model runs: cpu (default) or cuda (when present).")] = "cpu",
         workers: Annotated[Optional[int], typer.Option(
             min=1, help="Worker processes (default: all cores).", show_default=False)] = None,
         claims: Annotated[int, typer.Option(min=1, help="found claims allowed (2: the "
@@ -193,7 +225,7 @@ def register(app: typer.Typer, console: Console) -> None:
         ds = _open(dataset)
         ids = parse_ids(episodes)
         ref = _agent_ref(agent, agent_kwargs, actions, baseline, oracles, audio_model,
-                         audio_top_k, ds)
+                         audio_top_k, ds, vision_model, device)
         if reward not in ("paper", "geodesic"):
             raise InputError("<command line>", "--reward", f"{reward!r}: paper or geodesic")
         cats = [c.strip() for c in category.split(",") if c.strip()] if category else None
@@ -314,20 +346,39 @@ def register(app: typer.Typer, console: Console) -> None:
         seed: Annotated[int, typer.Option(help="Seeds the subsample, the audio models and "
                                           "the agents.")] = 0,
         trees: Annotated[int, typer.Option(min=1, help="Trees per audio model.")] = 300,
+        vision: Annotated[bool, typer.Option(
+            "--vision/--no-vision", help="Train the visual module (needs fallgen[learn]) and "
+            "run the rows that use it.")] = True,
+        vision_frames: Annotated[int, typer.Option(
+            min=1, help="The visual module's training frames (vision-model train --frames).")
+        ] = 18000,
+        vision_epochs: Annotated[int, typer.Option(
+            min=1, help="The visual module's epochs (vision-model train --epochs).")] = 8,
+        vision_model: Annotated[Optional[Path], typer.Option(
+            help="Use this visual module (fallgen vision-model train on this dataset) "
+            "instead of training one.")] = None,
+        device: Annotated[str, typer.Option(help="Where the visual module trains and is "
+                                            "scored: cpu or cuda.")] = "cpu",
         data_dir: Annotated[Optional[Path], typer.Option(
             "--data-dir", help="World data the dataset was built with (default: built-in).",
             show_default=False)] = None,
     ) -> None:
-        """The paper's Table 1 (random, the modular agent with the learned audio module and
-        its oracle ablations, the expert) and Table 2 (the audio module learned on one room
-        kind, tested on the other) with 95 % intervals, into OUT/table.md; reruns keep what
-        is done."""
+        """The paper's Table 1 (random, Object-Goal, the modular agent with the learned audio
+        and visual modules and the paper's oracle ablations, the expert) and Table 2 (the
+        audio module learned on one room kind, tested on the other) with 95 % intervals,
+        into OUT/table.md; reruns keep what is done."""
         from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, \
             TimeElapsedColumn
 
         from fallgen.evaluation.table import make_table
 
         _open(dataset)
+        if vision:
+            from fallgen.cli_vision import device_name
+
+            device = device_name(device)
+        elif vision_model is not None:
+            raise InputError("<command line>", "--vision-model", "not with --no-vision")
         with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
                       TimeElapsedColumn(), console=console) as bar:
             tasks: dict[str, int] = {}
@@ -340,13 +391,19 @@ def register(app: typer.Typer, console: Console) -> None:
             try:
                 run = make_table(dataset, out, episodes=episodes, cross_episodes=cross_episodes,
                                  workers=workers or (os.cpu_count() or 1), seed=seed,
-                                 trees=trees, data_dir=data_dir, log=console.print,
-                                 progress=progress)
+                                 trees=trees, data_dir=data_dir, vision=vision,
+                                 vision_frames=vision_frames, vision_epochs=vision_epochs,
+                                 device=device, vision_model=vision_model,
+                                 log=console.print, progress=progress)
             except ValueError as e:
                 raise InputError(dataset, _field(str(e), "data/"), str(e)) from None
         console.print((out / "table.md").read_text())
         console.print(f"{len(run.results)} rows in {run.timings['total'] / 60:.1f} min -> "
                       f"{out / 'table.md'}")
+
+    from fallgen import cli_vision
+
+    cli_vision.register(app, console)
 
     audio_app = typer.Typer(help="The auditory perception module (issue 30): train it on a "
                             "build's train split, score it on another.", no_args_is_help=True)

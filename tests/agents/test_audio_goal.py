@@ -167,13 +167,19 @@ def test_table_on_the_tiny_build(tiny_dataset, tmp_path, cli):
                "1") == 0
     assert {p: p.stat().st_mtime_ns for p in (out / "rows").rglob("summary.json")} == before
     assert json.loads((out / "table.json").read_text())["results"] == data["results"]
+    assert "vision" in data and (out / "vision" / "strip.png").is_file()
+    assert data["results"]["objectgoal"]["agent"] == "objectgoal+vision"
     # a different audio model (more trees) is made again, and the rows that use it run again
+    # (those with the visual module are left out with --no-vision: their files stay as they
+    # were, and the table leaves them out)
     assert cli("table", str(tiny_dataset), "-o", str(out), "--trees", "11", "--workers",
-               "1") == 0
+               "1", "--no-vision") == 0
     after = {p: p.stat().st_mtime_ns for p in (out / "rows").rglob("summary.json")}
     for p, t in after.items():
-        uses_audio = "audio" in json.loads(p.read_text())["agent"]
-        assert (t != before[p]) == uses_audio, p
+        agent = json.loads(p.read_text())["agent"]
+        assert (t != before[p]) == ("audio" in agent and "vision" not in agent), p
+    no_vision = json.loads((out / "table.json").read_text())
+    assert not {"objectgoal", "modular_av", "modular_av_obj"} & set(no_vision["results"])
     # the subsample: seeded, sorted, a subset; everything when asked for as many or more
     ids = list(range(100, 160))
     a = subsample(ids, 10, 0, 1)

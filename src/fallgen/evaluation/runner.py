@@ -30,8 +30,9 @@ ROW_KEYS = ("split", "room_kind", "room_variant", "zone_kind", "category", "audi
 
 @dataclass(frozen=True)
 class AgentRef:
-    """Which agent: ``kind`` is ``baseline`` (``name``: expert, random, modular; ``oracles``
-    for modular, and in ``kwargs`` ``audio_model``: a model file, and ``audio_top_k``),
+    """Which agent: ``kind`` is ``baseline`` (``name``: expert, random, modular, objectgoal;
+    ``oracles`` for modular and objectgoal, and in ``kwargs`` ``audio_model``: a model file,
+    ``audio_top_k``, and ``vision_model``: a model file),
     ``factory`` (``name``: ``module:function``, called with ``kwargs``) or ``actions``
     (``actions``: episode id -> action sequence)."""
 
@@ -46,6 +47,7 @@ class AgentRef:
             audio = "+audio" if self.kwargs.get("audio_model") else ""
             if self.kwargs.get("audio_top_k", 1) > 1:
                 audio += f"(top {self.kwargs['audio_top_k']})"
+            audio += "+vision" if self.kwargs.get("vision_model") else ""
             return self.name + audio + (f"[{'+'.join(self.oracles)}]" if self.oracles else "")
         if self.kind == "factory":
             return self.name

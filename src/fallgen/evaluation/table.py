@@ -1,19 +1,25 @@
 """``fallgen table`` (``make table``): the paper's Table 1 and Table 2 on a build, with the learned
-audio module in the modular agent.
+audio and visual modules in the modular agent.
 
 1. The audio module (:mod:`fallgen.perception.audio_model`) is trained on the build's train
    split three times: on every room (Table 1), on the kitchens alone and on the study rooms
-   alone (Table 2); each is scored on the test episodes it is used on.
+   alone (Table 2); each is scored on the test episodes it is used on. The visual module
+   (:mod:`fallgen.learn.vision_model`, with torch: ``fallgen[learn]``) is trained once on the
+   train split and scored on Table 1's test episodes' frames.
 2. Agents run on the test split (a seeded subsample of ``episodes`` when it is larger):
-   random, the modular agent with the audio module and the paper's oracle ablations, and the
-   expert as the ceiling (Table 1); the modular agent with the audio module and ground-truth
+   random, Object-Goal (the visual module, five candidate categories, no audio), the modular
+   agent with the learned modules and the paper's oracle ablations (each row with the same
+   kind of modules as the paper's: learned audio wherever the category or the place is not
+   given, the learned visual module wherever segmentation is not), and the expert as the
+   ceiling (Table 1); the modular agent with the audio module and ground-truth
    segmentation on the study rooms' test episodes with the kitchens' model, and the reverse
    (Table 2), beside Table 1's same agent on the same room kind (its audio module learned on
    both kinds): what changes is only where the audio module learned.
 3. ``OUT/table.md`` (both tables, the paper's numbers beside ours, the audio module's scores, the
    episodes used and how long each step took), ``OUT/table.json``, each row's
    ``episodes.jsonl`` / ``summary.json`` under ``OUT/rows/``, the models under ``OUT/models/``
-   and the audio module's scores and confusion matrices under ``OUT/audio/``.
+   (the visual module's learning curve beside it), the audio module's scores and confusion
+   matrices under ``OUT/audio/`` and the visual module's under ``OUT/vision/``.
 
 A rerun keeps the models and rows already made for the same dataset and selection (the work
 resumes); the results depend only on the dataset, the seed and the sizes, not on the workers.
@@ -44,7 +50,8 @@ _PAPER1 = {name.strip(): (sr, spl, sna) for name, sr, spl, sna in PAPER_TABLE1}
 @dataclass(frozen=True)
 class Row:
     """One line of a table: ``key`` names its directory under ``OUT/rows``; ``model`` the audio
-    model it uses (None: none); ``episodes`` which selection it runs on."""
+    model it uses (None: none); ``vision`` whether it uses the visual module; ``episodes``
+    which selection it runs on."""
 
     key: str
     label: str
@@ -54,18 +61,23 @@ class Row:
     episodes: str = "test"  # "test", "study" or "kitchen" (the test split's rooms of a kind)
     paper: tuple[float, float, float] | None = None
     note: str = ""
+    vision: bool = False
 
 
 def rows_table1() -> list[Row]:
+    """Table 1: each of the paper's modular rows and Object-Goal with the same kind of
+    modules (learned where the paper's were, oracles where its were)."""
     seg, obj, loc = "segmentation", "category", "location"
     return [
         Row("random", "Random", "random"),
-        Row("modular_audio", "Modular + audio", "modular", (), "all",
-            note="no detector: claims facing the heard place with nothing in front"),
+        Row("objectgoal", "Object-Goal (vision, 5 candidate categories, no audio)",
+            "objectgoal", (), paper=_PAPER1["Object-Goal"], vision=True),
+        Row("modular_av", "Modular Planning (audio + vision)", "modular", (), "all",
+            paper=_PAPER1["Modular Planning"], vision=True),
         Row("modular_audio_seg", "Modular + audio + GT segmentation", "modular", (seg,), "all",
             paper=_PAPER1["+ GT segmentation"]),
-        Row("modular_audio_obj", "Modular + audio + GT object", "modular", (obj,), "all",
-            paper=_PAPER1["+ GT object"]),
+        Row("modular_av_obj", "Modular + audio + vision + GT object", "modular", (obj,), "all",
+            paper=_PAPER1["+ GT object"], vision=True),
         Row("modular_audio_seg_obj", "Modular + audio + GT segmentation + object", "modular",
             (seg, obj), "all", paper=_PAPER1["+ GT segmentation + object"]),
         Row("modular_seg_obj_loc", "Modular + GT segmentation + object + location", "modular",
@@ -90,10 +102,13 @@ def rows_table2() -> list[Row]:
 @dataclass
 class TableRun:
     """What :func:`make_table` made: ``results`` the rows' summaries by key, ``audio`` the
-    audio module's scores by the episodes they were scored on, ``timings`` seconds by step."""
+    audio module's scores by the episodes they were scored on, ``vision`` the visual
+    module's scores and training, ``timings`` seconds by step."""
 
     results: dict[str, dict] = field(default_factory=dict)
     audio: dict[str, dict] = field(default_factory=dict)
+    vision: dict = field(default_factory=dict)
+    vision_meta: dict = field(default_factory=dict)
     timings: dict[str, float] = field(default_factory=dict)
     selection: dict[str, Any] = field(default_factory=dict)
 
@@ -122,12 +137,18 @@ def _read_json(path: Path) -> dict | None:
 
 def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
                cross_episodes: int = 200, workers: int = 1, seed: int = 0, trees: int = 300,
-               data_dir: str | Path | None = None,
+               data_dir: str | Path | None = None, vision: bool = True,
+               vision_frames: int = 18000, vision_epochs: int = 8, device: str = "cpu",
+               vision_model: str | Path | None = None,
                log: Callable[[str], None] = lambda _: None,
                progress: Callable[[str, int, int], None] | None = None) -> TableRun:
-    """Train the audio models, run every row of both tables and write ``OUT`` (see the
-    module's doc). ``episodes`` / ``cross_episodes``: how many test episodes Table 1's rows /
-    each room kind of Table 2 run on (0: all). ``progress(step, done, total)``."""
+    """Train the audio models and the visual module, run every row of both tables and write
+    ``OUT`` (see the module's doc). ``episodes`` / ``cross_episodes``: how many test
+    episodes Table 1's rows / each room kind of Table 2 run on (0: all); ``vision``: False
+    (or no torch) leaves out the rows that need the visual module; ``vision_frames`` and
+    ``vision_epochs`` its training (``fallgen vision-model train``'s ``--frames`` and
+    ``--epochs``), on ``device``; ``vision_model``: a model file of this dataset to use
+    instead of training one. ``progress(step, done, total)``."""
     from fallgen.atomic import write_text
     from fallgen.dataset.manifest import sha256 as file_sha256
     from fallgen.dataset.reader import Dataset
@@ -219,20 +240,33 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
                 confusion_png(matrix, labels, cname, out / "audio" / f"confusion_{cname}.png")
     run.timings["audio scores"] = time.perf_counter() - t0
 
+    # -- the visual module ---------------------------------------------------------------------
+    vision_path = None
+    if vision:
+        vision_path = _vision(run, ds, out, sha, chosen["test"], seed, vision_frames,
+                              vision_epochs, device, workers, data_dir, log, progress,
+                              None if vision_model is None else Path(vision_model))
+
     # -- the agents ----------------------------------------------------------------------------
     for row in rows_table1() + rows_table2():
         ids = chosen[row.episodes]
-        if not ids or (row.model and models[row.model] is None):
+        if not ids or (row.model and models[row.model] is None) or \
+                (row.vision and vision_path is None):
             log(f"{row.key}: not run (no {row.episodes} test episode or no model)")
             continue
         kwargs = {"audio_model": str(models[row.model])} if row.model else {}
         model_sha = file_sha256(models[row.model]) if row.model else None
+        vision_sha = None
+        if row.vision:
+            kwargs["vision_model"] = str(vision_path)
+            vision_sha = file_sha256(vision_path)
         ref = AgentRef("baseline", row.name, oracles=row.oracles, kwargs=kwargs)
         row_dir = out / ROWS / row.key
         old = _read_json(row_dir / "summary.json")
         if old is not None and old.get("manifest_sha256") == sha and \
                 old.get("agent") == ref.describe() and old.get("seed") == seed and \
-                old.get("episode_ids") == ids and old.get("audio_model_sha256") == model_sha:
+                old.get("episode_ids") == ids and old.get("audio_model_sha256") == model_sha \
+                and old.get("vision_model_sha256") == vision_sha:
             run.results[row.key] = old
             run.timings[row.key] = float(old.get("wall_s", 0.0))
             log(f"{row.key}: kept ({old['n']} episodes)")
@@ -242,7 +276,7 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
                       data_dir=data_dir, progress=_step(progress, row.key, len(ids)))
         wall = time.perf_counter() - t0
         ev.summary.update({"episode_ids": ids, "wall_s": round(wall, 1),
-                           "audio_model_sha256": model_sha})
+                           "audio_model_sha256": model_sha, "vision_model_sha256": vision_sha})
         write(ev, row_dir)
         run.results[row.key] = ev.summary
         run.timings[row.key] = wall
@@ -250,10 +284,88 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
     run.timings["total"] = time.perf_counter() - t_start
     write_text(out / "table.json", json.dumps(
         {"selection": run.selection, "results": {k: _brief(v) for k, v in run.results.items()},
-         "audio": run.audio, "timings_s": {k: round(v, 1) for k, v in run.timings.items()}},
+         "audio": run.audio, "vision": run.vision,
+         "timings_s": {k: round(v, 1) for k, v in run.timings.items()}},
         indent=1, sort_keys=True) + "\n")
     write_text(out / "table.md", markdown(run))
     return run
+
+
+def _vision(run: TableRun, ds, out: Path, sha: str, test_ids: Sequence[int], seed: int,
+            frames: int, epochs: int, device: str, workers: int, data_dir,
+            log: Callable[[str], None], progress, given: Path | None = None) -> Path | None:
+    """The visual module: ``given`` (a model file of this dataset), else trained once here
+    (kept when a model for the same dataset and settings is there; its frames kept under
+    ``OUT/models/vision-frames`` until it is made, so an interrupted run draws them once);
+    scored on the test episodes' frames (kept likewise). Its path, or None without torch."""
+    try:
+        from fallgen.learn.frames import FrameSpec
+        from fallgen.learn.vision_jobs import score_model, subsample_rows, train_model
+        from fallgen.learn.vision_model import VisionModel
+        from fallgen.learn.vision_train import TrainSettings
+    except ImportError as e:
+        log(f"visual module: {e}; its rows are left out")
+        return None
+    import shutil
+
+    from fallgen.atomic import write_text
+    from fallgen.dataset.manifest import sha256 as file_sha256
+    from fallgen.errors import InputError
+
+    model = None
+    if given is not None:
+        path = Path(given)
+        model = VisionModel.load(path)
+        model.check_dataset(ds, path)
+        log(f"vision model: {path} (given)")
+    else:
+        path = out / MODELS / "vision.model"
+        spec = FrameSpec(seed=seed)
+        settings = TrainSettings(frames=frames, spec=spec, epochs=epochs, seed=seed)
+        if path.is_file():
+            try:
+                m = VisionModel.load(path)
+                if m.manifest_sha256 == sha and m.meta.get("settings") == settings.to_dict():
+                    model = m
+                    log(f"vision model: kept {path}")
+            except InputError:
+                pass
+        if model is None:
+            rows = subsample_rows(ds.rows("train"), max(1, frames // spec.per_episode), seed,
+                                  11)
+            val_rows = subsample_rows(ds.rows("validation"), settings.val_episodes, seed, 12) \
+                if "validation" in ds.splits else []
+            cache = out / MODELS / "vision-frames"
+            model = train_model(ds, path, rows, val_rows, settings, device, workers, cache,
+                                data_dir, progress, log, meta={"split": "train"})
+            shutil.rmtree(cache, ignore_errors=True)
+            log(f"vision model: {model.meta['train_frames']} frames of {len(rows)} train "
+                f"episodes -> {path}")
+    # the model's own time (drawing its frames and training), whether made now or kept
+    run.timings["vision model"] = float(model.meta.get("frames_seconds", 0.0)) + \
+        float(model.meta.get("train_seconds", 0.0))
+    run.vision_meta = {k: model.meta.get(k) for k in ("train_frames", "train_episodes",
+                                                      "frames_seconds", "train_seconds",
+                                                      "loss", "device")}
+    run.vision_meta["margin"] = model.margin
+    t0 = time.perf_counter()
+    model_sha = file_sha256(path)
+    scores_path = out / "vision" / "scores.json"
+    old = _read_json(scores_path)
+    ids = sorted(int(i) for i in test_ids)
+    if old is not None and old.get("model_sha256") == model_sha and old.get("episode_ids") == ids:
+        run.vision = old
+        log("vision scores: kept")
+    else:
+        rows = [ds.row(i) for i in ids]
+        scores = score_model(model, ds, rows, out / "vision", device, workers, seed, data_dir,
+                             progress)
+        scores.update({"model_sha256": model_sha, "episode_ids": ids,
+                       "wall_s": round(time.perf_counter() - t0, 1)})
+        write_text(scores_path, json.dumps(scores, indent=1) + "\n")
+        run.vision = scores
+    run.timings["vision scores"] = float(run.vision.get("wall_s", 0.0))
+    return path
 
 
 def _step(progress, name: str, total: int):
@@ -297,6 +409,29 @@ def _result(run: TableRun, row: Row) -> tuple[str, ...]:
             _minutes(run.timings.get(row.key, 0.0)))
 
 
+def _vision_lines(run: TableRun) -> list[str]:
+    """table.md's section on the visual module (empty when it was not used)."""
+    v = run.vision
+    if not v:
+        return []
+    m = run.vision_meta
+    fmt = "{:.3f}".format
+    out = ["## The visual module on the test episodes' frames", "",
+           f"Trained on {m.get('train_frames')} frames of {m.get('train_episodes')} train "
+           f"episodes ({(m.get('frames_seconds') or 0) / 60:.1f} min drawing them, "
+           f"{(m.get('train_seconds') or 0) / 60:.1f} min training on {m.get('device')}; "
+           f"{m.get('loss')}; margin {m.get('margin')}); scored on {v['frames']} frames of "
+           f"{v['episodes']} test episodes (step 0, a view along the expert's path, one of "
+           "the object from 0.5-2 m).", "",
+           "| mIoU (31 targets) | found (>= 50 px within 2 m) | found (>= 4 px within 2 m) | "
+           "false alarms (object not visible) | inference (1 thread) |",
+           "|---|---|---|---|---|",
+           f"| {fmt(v['miou'])} | {fmt(v['found'])} ({v['found_frames']}) | "
+           f"{fmt(v['found_visible'])} ({v['visible_frames']}) | {fmt(v['false_alarms'])} "
+           f"({v['false_alarm_frames']}) | {v['inference_ms_per_frame_1_thread']:.1f} ms |", ""]
+    return out
+
+
 def markdown(run: TableRun) -> str:
     """``table.md``: both tables, the audio module's scores and the timings."""
     sel = run.selection
@@ -310,9 +445,16 @@ def markdown(run: TableRun) -> str:
         [_result(run, row) for row in rows_table1() if row.key in run.results],
         ("Method", "SR [95 % CI]", "SPL", "SNA", "paper SR / SPL / SNA", "episodes", "time")
     ).rstrip("\n")]
-    lines += ["", "The paper's Modular Planning row (0.41 / 0.27 / 0.25) used a learned "
-              "segmentation as well as its audio model; ours has no learned detector, so its "
-              "nearest row is `Modular + audio + GT segmentation` (the paper's 0.47).", "",
+    lines += ["", "Each row has the paper's kind of modules: the learned audio module wherever "
+              "the category or the place is not given (the agent heads for the heard place "
+              "and looks for the heard category), the learned visual module (`fallgen "
+              "vision-model`: a small encoder-decoder segmenting the 31 target categories "
+              "from RGB-D; the paper's was a Mask R-CNN) wherever segmentation is not. "
+              "Object-Goal has the visual module and no audio: told five candidate "
+              "categories (the true one and four drawn per episode), it explores frontiers "
+              "and claims the candidate-category object it has seen best.", ""]
+    lines += _vision_lines(run)
+    lines += ["",
               "## Table 2 (cross-scene: the audio module learned on one room kind, tested on "
               "the other; modular agent + audio + GT segmentation)", ""]
     same = run.results.get("modular_audio_seg", {}).get("by_room_kind", {})
