@@ -41,14 +41,13 @@ from pathlib import Path
 
 import numpy as np
 
-from fallgen.vision.camera import HEIGHT, WIDTH
-
 OTHER = "other"
 #: a label's bit for the fallen object's own pixels, and the mask of its class
 TARGET_BIT, CLASS_MASK = 128, 127
-#: the store's arrays: name -> (dtype, shape after N)
-ARRAYS = {"rgb": (np.uint8, (HEIGHT, WIDTH, 3)), "depth": (np.float16, (HEIGHT, WIDTH)),
-          "label": (np.uint8, (HEIGHT, WIDTH))}
+#: the store's arrays: name -> (dtype, shape after N and the view's rows and columns); the
+#: camera (and with it the renderer) is imported only where frames are drawn, so a store can
+#: be trained on where nothing renders
+ARRAYS = {"rgb": (np.uint8, (3,)), "depth": (np.float16, ()), "label": (np.uint8, ())}
 META = ("episode_id", "step", "object_pixels", "distance_m", "object_class")
 STORE_FORMAT = "fallgen-frames/1"
 #: episodes per unit of work handed to a worker
@@ -155,9 +154,9 @@ class ViewRenderer:
 
     def __init__(self, ds, world) -> None:
         from fallgen.env.source import EpisodeSource
-        from fallgen.vision.camera import world_category_labels
+        from fallgen.vision.camera import WIDTH, world_category_labels
 
-        self.ds, self.world = ds, world
+        self.ds, self.world, self.side = ds, world, WIDTH
         self.labels = tuple(world_category_labels(world))
         self.source = EpisodeSource(ds)
         built = ds.generate_settings()
@@ -179,7 +178,7 @@ class ViewRenderer:
             self._room = None
         ep = self.source.load(int(episode_id))
         if self._gl is None:
-            self._gl = GLContext(WIDTH)
+            self._gl = GLContext(self.side)
         variant = ep.row["room_variant"]
         look = None if self.look_root is None else appearance_seed(self.look_root,
                                                                    int(episode_id))
@@ -321,6 +320,7 @@ def collect(ds, rows: Sequence[dict], out: str | Path, spec: FrameSpec,
     it; a store already there for the same dataset, episodes and settings is reused."""
     from fallgen.dataset.manifest import manifest_sha256
     from fallgen.pipeline.executor import parallel_map
+    from fallgen.vision.camera import HEIGHT, WIDTH
 
     out = Path(out)
     ids = [int(r["episode_id"]) for r in rows]
@@ -336,8 +336,8 @@ def collect(ds, rows: Sequence[dict], out: str | Path, spec: FrameSpec,
     out.mkdir(parents=True)
     n = frames_count(rows, spec)
     arrays = {k: np.lib.format.open_memmap(out / f"{k}.npy", mode="w+", dtype=dt,
-                                           shape=(n, *shape))
-              for k, (dt, shape) in ARRAYS.items()}
+                                           shape=(n, HEIGHT, WIDTH, *tail))
+              for k, (dt, tail) in ARRAYS.items()}
     meta = {k: np.zeros(n, np.float32 if k == "distance_m" else np.int64) for k in META}
     chunks = [ids[k:k + CHUNK] for k in range(0, len(ids), CHUNK)]
     args = (str(ds.root), None if data_dir is None else str(data_dir), spec, tuple(targets))
