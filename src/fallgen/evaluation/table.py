@@ -37,8 +37,14 @@ from typing import Any
 import numpy as np
 
 from fallgen.evaluation.runner import AgentRef
-from fallgen.evaluation.scores import PAPER_TABLE1, PAPER_TABLE2, manifest_hash, \
-    markdown_table, table_rows
+from fallgen.evaluation.scores import (
+    PAPER_TABLE1,
+    PAPER_TABLE2,
+    manifest_hash,
+    markdown_table,
+    table_rows,
+)
+from fallgen.evaluation.table_vision import failure_lines, vision_lines
 
 ROWS = "rows"
 MODELS = "models"
@@ -153,8 +159,15 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
     from fallgen.dataset.manifest import sha256 as file_sha256
     from fallgen.dataset.reader import Dataset
     from fallgen.evaluation.evaluate import evaluate, write
-    from fallgen.perception.audio_model import AudioModel, check_features, confusion_png, \
-        dataset_features, evaluate as score_audio, feature_matrix
+    from fallgen.evaluation.table_vision import vision_module
+    from fallgen.perception.audio_model import (
+        AudioModel,
+        check_features,
+        confusion_png,
+        dataset_features,
+        feature_matrix,
+    )
+    from fallgen.perception.audio_model import evaluate as score_audio
     from fallgen.world.library import load_world
 
     t_start = time.perf_counter()
@@ -243,9 +256,12 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
     # -- the visual module ---------------------------------------------------------------------
     vision_path = None
     if vision:
-        vision_path = _vision(run, ds, out, sha, chosen["test"], seed, vision_frames,
-                              vision_epochs, device, workers, data_dir, log, progress,
-                              None if vision_model is None else Path(vision_model))
+        part = vision_module(ds, out, out / MODELS, sha, chosen["test"], seed, vision_frames,
+                             vision_epochs, device, workers, data_dir, log, progress,
+                             None if vision_model is None else Path(vision_model))
+        if part is not None:
+            vision_path, run.vision, run.vision_meta = part.path, part.scores, part.meta
+            run.timings.update(part.timings)
 
     # -- the agents ----------------------------------------------------------------------------
     for row in rows_table1() + rows_table2():
@@ -291,83 +307,6 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
     return run
 
 
-def _vision(run: TableRun, ds, out: Path, sha: str, test_ids: Sequence[int], seed: int,
-            frames: int, epochs: int, device: str, workers: int, data_dir,
-            log: Callable[[str], None], progress, given: Path | None = None) -> Path | None:
-    """The visual module: ``given`` (a model file of this dataset), else trained once here
-    (kept when a model for the same dataset and settings is there; its frames kept under
-    ``OUT/models/vision-frames`` until it is made, so an interrupted run draws them once);
-    scored on the test episodes' frames (kept likewise). Its path, or None without torch."""
-    try:
-        from fallgen.learn.frames import FrameSpec
-        from fallgen.learn.vision_jobs import score_model, subsample_rows, train_model
-        from fallgen.learn.vision_model import VisionModel
-        from fallgen.learn.vision_train import TrainSettings
-    except ImportError as e:
-        log(f"visual module: {e}; its rows are left out")
-        return None
-    import shutil
-
-    from fallgen.atomic import write_text
-    from fallgen.dataset.manifest import sha256 as file_sha256
-    from fallgen.errors import InputError
-
-    model = None
-    if given is not None:
-        path = Path(given)
-        model = VisionModel.load(path)
-        model.check_dataset(ds, path)
-        log(f"vision model: {path} (given)")
-    else:
-        path = out / MODELS / "vision.model"
-        spec = FrameSpec(seed=seed)
-        settings = TrainSettings(frames=frames, spec=spec, epochs=epochs, seed=seed)
-        if path.is_file():
-            try:
-                m = VisionModel.load(path)
-                if m.manifest_sha256 == sha and m.meta.get("settings") == settings.to_dict():
-                    model = m
-                    log(f"vision model: kept {path}")
-            except InputError:
-                pass
-        if model is None:
-            rows = subsample_rows(ds.rows("train"), max(1, frames // spec.per_episode), seed,
-                                  11)
-            val_rows = subsample_rows(ds.rows("validation"), settings.val_episodes, seed, 12) \
-                if "validation" in ds.splits else []
-            cache = out / MODELS / "vision-frames"
-            model = train_model(ds, path, rows, val_rows, settings, device, workers, cache,
-                                data_dir, progress, log, meta={"split": "train"})
-            shutil.rmtree(cache, ignore_errors=True)
-            log(f"vision model: {model.meta['train_frames']} frames of {len(rows)} train "
-                f"episodes -> {path}")
-    # the model's own time (drawing its frames and training), whether made now or kept
-    run.timings["vision model"] = float(model.meta.get("frames_seconds", 0.0)) + \
-        float(model.meta.get("train_seconds", 0.0))
-    run.vision_meta = {k: model.meta.get(k) for k in ("train_frames", "train_episodes",
-                                                      "frames_seconds", "train_seconds",
-                                                      "loss", "device")}
-    run.vision_meta["margin"] = model.margin
-    t0 = time.perf_counter()
-    model_sha = file_sha256(path)
-    scores_path = out / "vision" / "scores.json"
-    old = _read_json(scores_path)
-    ids = sorted(int(i) for i in test_ids)
-    if old is not None and old.get("model_sha256") == model_sha and old.get("episode_ids") == ids:
-        run.vision = old
-        log("vision scores: kept")
-    else:
-        rows = [ds.row(i) for i in ids]
-        scores = score_model(model, ds, rows, out / "vision", device, workers, seed, data_dir,
-                             progress)
-        scores.update({"model_sha256": model_sha, "episode_ids": ids,
-                       "wall_s": round(time.perf_counter() - t0, 1)})
-        write_text(scores_path, json.dumps(scores, indent=1) + "\n")
-        run.vision = scores
-    run.timings["vision scores"] = float(run.vision.get("wall_s", 0.0))
-    return path
-
-
 def _step(progress, name: str, total: int):
     if progress is None:
         return None
@@ -409,29 +348,6 @@ def _result(run: TableRun, row: Row) -> tuple[str, ...]:
             _minutes(run.timings.get(row.key, 0.0)))
 
 
-def _vision_lines(run: TableRun) -> list[str]:
-    """table.md's section on the visual module (empty when it was not used)."""
-    v = run.vision
-    if not v:
-        return []
-    m = run.vision_meta
-    fmt = "{:.3f}".format
-    out = ["## The visual module on the test episodes' frames", "",
-           f"Trained on {m.get('train_frames')} frames of {m.get('train_episodes')} train "
-           f"episodes ({(m.get('frames_seconds') or 0) / 60:.1f} min drawing them, "
-           f"{(m.get('train_seconds') or 0) / 60:.1f} min training on {m.get('device')}; "
-           f"{m.get('loss')}; margin {m.get('margin')}); scored on {v['frames']} frames of "
-           f"{v['episodes']} test episodes (step 0, a view along the expert's path, one of "
-           "the object from 0.5-2 m).", "",
-           "| mIoU (31 targets) | found (>= 50 px within 2 m) | found (>= 4 px within 2 m) | "
-           "false alarms (object not visible) | inference (1 thread) |",
-           "|---|---|---|---|---|",
-           f"| {fmt(v['miou'])} | {fmt(v['found'])} ({v['found_frames']}) | "
-           f"{fmt(v['found_visible'])} ({v['visible_frames']}) | {fmt(v['false_alarms'])} "
-           f"({v['false_alarm_frames']}) | {v['inference_ms_per_frame_1_thread']:.1f} ms |", ""]
-    return out
-
-
 def markdown(run: TableRun) -> str:
     """``table.md``: both tables, the audio module's scores and the timings."""
     sel = run.selection
@@ -453,7 +369,8 @@ def markdown(run: TableRun) -> str:
               "Object-Goal has the visual module and no audio: told five candidate "
               "categories (the true one and four drawn per episode), it explores frontiers "
               "and claims the candidate-category object it has seen best.", ""]
-    lines += _vision_lines(run)
+    lines += vision_lines(run.vision, run.vision_meta)
+    lines += failure_lines(run.results, {r.key: r.label for r in rows_table1()})
     lines += ["",
               "## Table 2 (cross-scene: the audio module learned on one room kind, tested on "
               "the other; modular agent + audio + GT segmentation)", ""]

@@ -29,8 +29,14 @@ from pathlib import Path
 import numpy as np
 
 from fallgen.learn.frames import CLASS_MASK, TARGET_BIT, FrameStore
-from fallgen.learn.vision_model import FOUND_PIXELS, FOUND_SHOWN_PIXELS, FOUND_WITHIN_M, \
-    VisionModel, full_size, labels_at
+from fallgen.learn.vision_model import (
+    FOUND_PIXELS,
+    FOUND_SHOWN_PIXELS,
+    FOUND_WITHIN_M,
+    VisionModel,
+    full_size,
+    labels_at,
+)
 
 
 def predict_store(model: VisionModel, store: FrameStore, device=None, batch: int = 8,

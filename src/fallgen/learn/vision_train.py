@@ -24,8 +24,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from fallgen.learn import require_torch
-from fallgen.learn.frames import CLASS_MASK, TARGET_BIT, FrameSpec, FrameStore, \
-    class_table
+from fallgen.learn.frames import CLASS_MASK, TARGET_BIT, FrameSpec, FrameStore, class_table
 from fallgen.learn.nets import NetConfig
 from fallgen.learn.vision_eval import frame_scores, predict_store
 from fallgen.learn.vision_model import VisionModel, to_input
@@ -147,10 +146,11 @@ class Progress:
 
 
 def train(ds, train_store: FrameStore, val_store: FrameStore | None, settings: TrainSettings,
-          device: str | None = None, progress: Progress = Progress()) -> VisionModel:
+          device: str | None = None, progress: Progress | None = None) -> VisionModel:
     """Train a :class:`VisionModel` on ``train_store``'s frames (of ``ds``); the learning
     curve and the margin from ``val_store``'s."""
     torch = require_torch()
+    progress = progress or Progress()
     from fallgen.dataset.manifest import manifest_sha256
     from fallgen.learn.nets import SegNet
     from fallgen.learn.runtime import init_weights, keep_heap, resolve_device, session
