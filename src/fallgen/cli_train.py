@@ -110,6 +110,10 @@ def register(app: typer.Typer, console) -> None:
             raise InputError(dataset, "data/", "no episodes")
         config = cfg.to_dict() | {"sample_rate": int(rows[0]["sample_rate"])}
         typed = {k: config[k] for k in given}
+        if expert is not None:  # before the run is made: a bad file leaves nothing behind
+            from fallgen.policies.dt_data import expert_file
+
+            expert_file(dataset, digest, out, expert)
         run = Run(out)
         fixed = {k: v for k, v in typed.items() if k not in MUTABLE}
         config = run.start(kind, dataset, digest, config, fixed)

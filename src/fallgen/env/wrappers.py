@@ -228,5 +228,5 @@ def compact_env(dataset: str | Path, split: str | None = None, *, size: int = SI
     return CompactObservation(env, size, depth_max_m, bands, hold_audio)
 
 
-__all__ = ["CompactObservation", "Compactor", "compact_env", "log_mel", "band_power", "mel_filters", "SIZE",
-           "DEPTH_MAX_M", "BANDS", "DB_FLOOR", "DB_CEIL"]
+__all__ = ["CompactObservation", "Compactor", "compact_env", "log_mel", "band_power",
+           "mel_filters", "SIZE", "DEPTH_MAX_M", "BANDS", "DB_FLOOR", "DB_CEIL"]

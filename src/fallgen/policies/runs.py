@@ -172,7 +172,9 @@ def apply_overrides(obj: Any, overrides: Mapping[str, Any] | None) -> Any:
             else:
                 val = v
         except (TypeError, ValueError):
-            raise ValueError(f"{k}={v!r}: not a {type(cur).__name__}") from None
+            kind = {"int": "an integer", "float": "a number"}.get(type(cur).__name__,
+                                                                  type(cur).__name__)
+            raise ValueError(f"{k}={v!r}: not {kind}") from None
         setattr(obj, k, val)
     return obj
 

@@ -86,6 +86,7 @@ class LoopCallback(BaseCallback):
         self._rollout_t0 = self._t0
         self._rollout_steps0 = 0
         self._saved_at = -1
+        self.saved_timesteps = 0
         self._from_rollout: dict[str, float] = {}
 
     @property
@@ -128,6 +129,7 @@ class LoopCallback(BaseCallback):
             return
         self.save_fn(self)
         self._saved_at = self.update
+        self.saved_timesteps = self.model.num_timesteps
         draw_curve(self.run, self.title)
 
     def _on_rollout_start(self) -> None:
@@ -155,6 +157,7 @@ def draw_curve(run: Run, title: str) -> None:
     curve_png(run.curve_path, rows, "timesteps",
               [("success, SPL (last 100 episodes)", ("success", "spl")),
                ("return (last 100 episodes)", ("return",)),
+               ("episode length (last 100 episodes)", ("length",)),
                ("losses", ("value_loss", "policy_gradient_loss"))], title)
 
 
@@ -215,7 +218,9 @@ def train_on_env(kind: str, dataset: str | Path, run: Run, cfg: Mapping[str, Any
             remaining = int(cfg["timesteps"]) - model.num_timesteps
             if remaining > 0:
                 model.learn(remaining, callback=cb, reset_num_timesteps=False)
-            return {"updates": cb.update, "timesteps": model.num_timesteps,
+            # a run stopped at a rollout's first step: the checkpoint is of the step before
+            steps = cb.saved_timesteps if cb.stopped else model.num_timesteps
+            return {"updates": cb.update, "timesteps": steps,
                     "wall_s": cb.wall_s, "stopped": cb.stopped, "done": remaining <= 0 or
                     model.num_timesteps >= int(cfg["timesteps"]),
                     "checkpoint": str(run.latest())}
