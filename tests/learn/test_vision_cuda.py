@@ -27,10 +27,19 @@ def test_vision_model_trains_on_cuda_and_predicts_alike_on_the_cpu(tiny_dataset,
     ep = fallgen.dataset.open(tiny_dataset).get(fallgen.dataset.open(tiny_dataset).ids()[0])
     rgb, depth = ep["rgb"][None], np.asarray(ep["depth"], np.float32)[None]
     best_cpu, lead_cpu = m.scores(rgb, depth, "cpu")
-    best_gpu, lead_gpu = m.scores(rgb, depth, "cuda")
-    assert lead_cpu.shape == lead_gpu.shape and np.allclose(lead_cpu, lead_gpu, atol=1e-3)
-    clear = np.abs(lead_cpu) > 1e-2  # pixels whose class is not a near tie
-    assert np.array_equal(best_cpu[clear], best_gpu[clear])
+    # in full float32 on the GPU too: its convolutions run in TF32 by default (a 10-bit
+    # mantissa; on an H200 the margins then differed by ~3e-3 of values ~2)
+    tf32 = torch.backends.cudnn.allow_tf32, torch.backends.cuda.matmul.allow_tf32
+    torch.backends.cudnn.allow_tf32 = torch.backends.cuda.matmul.allow_tf32 = False
+    try:
+        best_gpu, lead_gpu = m.scores(rgb, depth, "cuda")
+    finally:
+        torch.backends.cudnn.allow_tf32, torch.backends.cuda.matmul.allow_tf32 = tf32
+    assert lead_cpu.shape == lead_gpu.shape
+    assert np.allclose(lead_cpu, lead_gpu, rtol=1e-4, atol=1e-4), \
+        float(np.abs(lead_cpu - lead_gpu).max())
+    # the best class may flip only where two classes' scores tie within that rounding
+    assert (best_cpu == best_gpu).mean() >= 0.99
 
 
 @pytest.mark.skipif(torch.cuda.is_available(), reason="a CUDA device is here")
