@@ -177,11 +177,6 @@ def test_fallgen_and_its_command_line_import_without_torch():
 TRACKER = re.compile(r"\bissue(?:[ s]*#?[0-9]|'s)|\bthe issue\b", re.I)
 #: Where behaviour is described; CHANGELOG.md is history and may cite where a change came from.
 WHERE = ("src", "tests", "bench", "docs", "README.md", "Makefile")
-#: Files another change is editing that still name the tracker; they leave this list (and the
-#: strict expected failure below fails) once they say the behaviour instead.
-PENDING = {"src/fallgen/agents/audio_goal.py", "src/fallgen/cli_benchmark.py"}
-
-
 def tracker_mentions() -> dict[str, list[str]]:
     out: dict[str, list[str]] = {}
     for where in WHERE:
@@ -205,12 +200,4 @@ def test_the_tracker_pattern_matches_what_it_should():
 
 
 def test_code_tests_and_docs_name_behaviour_not_the_tracker():
-    found = {f: lines for f, lines in tracker_mentions().items() if f not in PENDING}
-    assert found == {}
-
-
-@pytest.mark.xfail(strict=True, reason="agents/audio_goal.py and cli_benchmark.py (edited by "
-                   "the learned-perception work) still say 'issue 30'")
-def test_the_pending_files_name_behaviour_too():
-    found = {f: lines for f, lines in tracker_mentions().items() if f in PENDING}
-    assert found == {}
+    assert tracker_mentions() == {}

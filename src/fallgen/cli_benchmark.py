@@ -405,7 +405,7 @@ def register(app: typer.Typer, console: Console) -> None:
 
     cli_vision.register(app, console)
 
-    audio_app = typer.Typer(help="The auditory perception module (issue 30): train it on a "
+    audio_app = typer.Typer(help="The auditory perception module: train it on a "
                             "build's train split, score it on another.", no_args_is_help=True)
     app.add_typer(audio_app, name="audio-model")
 

@@ -1,4 +1,4 @@
-"""The learned audio module as the modular agent's goal predictor (issue 30): the step-0 clip
+"""The learned audio module as the modular agent's goal predictor: the step-0 clip
 -> where the fall was (in the spawn's frame, with the model's uncertainty) and what fell.
 
 The paper's modular agent does the same with a ResNet-18 on spectrograms; ours is
