@@ -118,6 +118,15 @@ def register(app: typer.Typer, console) -> None:
         fixed = {k: v for k, v in typed.items() if k not in MUTABLE}
         config = run.start(kind, dataset, digest, config, fixed)
         config.update({k: v for k, v in typed.items() if k in MUTABLE})
+        if kind != "dt":  # each worker plays its own slice of the split's episodes
+            try:
+                n_eps = len(ds.ids(config["split"], config.get("room_kind")))
+            except (KeyError, ValueError) as e:
+                raise InputError(dataset, "split", str(e)) from None
+            if int(config["envs"]) > n_eps:
+                raise InputError("<command line>", "--envs", f"{config['envs']} workers for "
+                                 f"{n_eps} episodes of {dataset}'s {config['split']} split "
+                                 "(at most one worker an episode)")
         extra = {"expert": expert} if kind == "dt" else {}
         limit = minutes if minutes is not None else mod.DEFAULT_MINUTES
         try:
