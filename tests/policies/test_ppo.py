@@ -62,10 +62,14 @@ def test_ppo_trains_resumes_and_is_evaluated(tiny_dataset, tmp_path, cli, capsys
     capsys.readouterr()
 
 
-def test_another_datasets_run_is_refused(tiny_dataset, tmp_path, cli, capsys):
-    """A run made on the tiny build, asked to go on with a dataset whose manifest differs:
-    one line naming run.json and manifest_sha256, exit 2; its checkpoint is refused too."""
+def test_a_run_repeats_and_another_datasets_run_is_refused(tiny_dataset, tmp_path, cli,
+                                                          capsys):
+    """Two runs of one seed make the same weights. A run made on the tiny build, asked to go
+    on with a dataset whose manifest differs: one line naming run.json and manifest_sha256,
+    exit 2; its checkpoint is refused too."""
     import shutil
+
+    import torch
 
     from fallgen.errors import InputError
     from fallgen.policies.runs import load_checkpoint
@@ -79,9 +83,12 @@ def test_another_datasets_run_is_refused(tiny_dataset, tmp_path, cli, capsys):
             shutil.copy(f, other / f.name)
     (other / "manifest.json").write_text((tiny_dataset / "manifest.json").read_text()
                                          .replace("{", "{\n", 1))
-    run = tmp_path / "run"
-    assert cli("train", "ppo", str(tiny_dataset), "-o", str(run), "--budget", "16",
-               *SMALL) == 0
+    run, twin = tmp_path / "run", tmp_path / "twin"
+    for r in (run, twin):
+        assert cli("train", "ppo", str(tiny_dataset), "-o", str(r), "--budget", "16",
+                   *SMALL) == 0
+    a, b = (load_checkpoint(r / "checkpoints" / "ckpt-000001.pt", "ppo") for r in (run, twin))
+    assert all(torch.equal(v, b["state"]["policy"][k]) for k, v in a["state"]["policy"].items())
     capsys.readouterr()
     assert cli("train", "ppo", str(other), "-o", str(run), "--budget", "32") == 2
     err = capsys.readouterr().err.strip()
@@ -130,3 +137,4 @@ def test_the_agent_sees_what_training_saw(tiny_dataset):
     finally:
         raw.close()
         wrapped.close()
+
