@@ -51,11 +51,14 @@ def test_ppo_trains_resumes_and_is_evaluated(tiny_dataset, tmp_path, cli, capsys
     rows3 = read_log(run / "log.csv")
     assert rows3[:2] == rows and int(rows3[2]["update"]) == 3
     # scored as every agent is, with the oracle found: only moves, never a found action
+    import fallgen.dataset
+
+    first = fallgen.dataset.open(tiny_dataset).ids("test")[0]
     out = tmp_path / "eval"
-    assert cli("evaluate", str(tiny_dataset), "--agent", str(run), "--split", "test",
+    assert cli("evaluate", str(tiny_dataset), "--agent", str(run), "--episodes", str(first),
                "--workers", "1", "-o", str(out)) == 0
     eps = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
-    assert len(eps) == 2
+    assert [e["episode_id"] for e in eps] == [first]
     assert all(max(e["actions"]) < 5 for e in eps)
     assert all(e["claims"] == 0 for e in eps)
     assert all(e["success"] == (e["outcome"] == "found") for e in eps)
