@@ -147,7 +147,7 @@ def test_table_on_the_tiny_build(tiny_dataset, tmp_path, cli):
 
     out = tmp_path / "table"
     assert cli("table", str(tiny_dataset), "-o", str(out), "--trees", "10", "--workers",
-               "1") == 0
+               "1", "--vision-frames", "9", "--vision-epochs", "1") == 0
     md = (out / "table.md").read_text()
     data = json.loads((out / "table.json").read_text())
     ran = set(data["results"])
@@ -164,7 +164,7 @@ def test_table_on_the_tiny_build(tiny_dataset, tmp_path, cli):
     assert "0.93 / 0.83 / 0.80" in md  # the paper's numbers beside ours
     before = {p: p.stat().st_mtime_ns for p in (out / "rows").rglob("summary.json")}
     assert cli("table", str(tiny_dataset), "-o", str(out), "--trees", "10", "--workers",
-               "1") == 0
+               "1", "--vision-frames", "9", "--vision-epochs", "1") == 0
     assert {p: p.stat().st_mtime_ns for p in (out / "rows").rglob("summary.json")} == before
     assert json.loads((out / "table.json").read_text())["results"] == data["results"]
     assert "vision" in data and (out / "vision" / "strip.png").is_file()
