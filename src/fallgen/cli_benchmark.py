@@ -351,9 +351,9 @@ def register(app: typer.Typer, console: Console) -> None:
             "run the rows that use it.")] = True,
         vision_frames: Annotated[int, typer.Option(
             min=1, help="The visual module's training frames (vision-model train --frames).")
-        ] = 18000,
+        ] = 24000,
         vision_epochs: Annotated[int, typer.Option(
-            min=1, help="The visual module's epochs (vision-model train --epochs).")] = 8,
+            min=1, help="The visual module's epochs (vision-model train --epochs).")] = 4,
         vision_model: Annotated[Optional[Path], typer.Option(
             help="Use this visual module (fallgen vision-model train on this dataset) "
             "instead of training one.")] = None,

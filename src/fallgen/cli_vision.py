@@ -107,14 +107,14 @@ def register(app: typer.Typer, console: Console) -> None:
                                           ".curve.png).")],
         frames: Annotated[int, typer.Option(
             min=1, help="Frames at most: the train split's episodes are subsampled (seeded) "
-            "to fit, each giving its step-0 view, --path-views and --look-views.")] = 18000,
-        epochs: Annotated[int, typer.Option(min=1, help="Passes over the frames.")] = 8,
+            "to fit, each giving its step-0 view, --path-views and --look-views.")] = 24000,
+        epochs: Annotated[int, typer.Option(min=1, help="Passes over the frames.")] = 4,
         path_views: Annotated[int, typer.Option(
-            min=0, help="Views along each expert path (its last pose first).")] = 1,
+            min=0, help="Views along each expert path (its last pose first).")] = 2,
         look_views: Annotated[int, typer.Option(
-            min=0, help="Views of the object from 0.5-2 m, facing it.")] = 1,
+            min=0, help="Views of the object from 0.5-2 m, facing it.")] = 3,
         crop: Annotated[int, typer.Option(min=32, max=300, help="Training crop side (even).")
-                        ] = 192,
+                        ] = 160,
         batch: Annotated[int, typer.Option(min=1, help="Crops per step.")] = 16,
         lr: Annotated[float, typer.Option(help="Peak learning rate (AdamW).")] = 3e-3,
         val_episodes: Annotated[int, typer.Option(
@@ -168,8 +168,9 @@ def register(app: typer.Typer, console: Console) -> None:
         m = model.meta
         console.print(f"vision model on {m['train_frames']} frames of {len(rows)} {split} "
                       f"episodes ({m['frames_seconds'] / 60:.1f} min drawing them, "
-                      f"{m['train_seconds'] / 60:.1f} min training, {dev}); margin "
-                      f"{model.margin:g} -> {out}, {out.with_suffix('.log.csv')}, "
+                      f"{m['train_seconds'] / 60:.1f} min training, {dev}); margins "
+                      f"{model.margin:g} (asked {model.ask_margin:g}) -> {out}, "
+                      f"{out.with_suffix('.log.csv')}, "
                       f"{out.with_suffix('.curve.png')}")
 
     @vision_app.command("eval")
@@ -222,6 +223,10 @@ def register(app: typer.Typer, console: Console) -> None:
                   str(scores["visible_frames"]))
         t.add_row("false alarms (not visible)", f"{scores['false_alarms']:.3f}",
                   str(scores["false_alarm_frames"]))
+        t.add_row("found, its category asked for", f"{scores['found_asked']:.3f}",
+                  str(scores["found_frames"]))
+        t.add_row("false alarms, its category asked for",
+                  f"{scores['false_alarms_asked']:.3f}", str(scores["false_alarm_frames"]))
         t.add_row("inference, 1 thread", f"{scores['inference_ms_per_frame_1_thread']:.1f} ms",
                   "")
         console.print(t)

@@ -179,6 +179,41 @@ def test_scores_count_what_they_claim(store):
     alarm = frame_scores(blocks, everywhere.astype(np.uint8), np.ones_like(lead), 0.0, n_cls)
     assert alarm["false_alarms"] == 1.0 and alarm["found"] == 1.0
     assert frame_scores(blocks, cls, lead, 1.0, n_cls)["found"] == 0.0
+    # the category asked for: its own lead is the truth's where the object's class is, the
+    # opposite elsewhere; painted everywhere it alarms wherever the object is hidden
+    own = np.where(cls == meta["object_class"][:, None, None], 1.0, -1.0).astype(np.float32)
+    asked = frame_scores(blocks, cls, lead, 0.0, n_cls, own=own, ask_margin=0.0)
+    assert asked["found_asked"] == 1.0 and asked["false_alarms_asked"] == 0.0
+    assert asked["found"] == truth["found"] and asked["miou"] == truth["miou"]
+    loud = frame_scores(blocks, cls, lead, 0.0, n_cls, own=np.ones_like(own), ask_margin=0.0)
+    assert loud["false_alarms_asked"] == 1.0
+    assert frame_scores(blocks, cls, lead, 0.0, n_cls, own=own,
+                        ask_margin=1.0)["found_asked"] == 0.0
+
+
+def test_asking_for_categories_reads_their_own_scores(memorised, store):
+    """``asked``: the best of the given classes and its lead over ``other``, whatever the
+    other classes score; all the targets asked for is the plain rule."""
+    from fallgen.learn.vision_model import to_input
+
+    model, _ = memorised
+    _, frames = store
+    rgb, depth = np.asarray(frames.rgb[:2]), np.asarray(frames.depth[:2], np.float32)
+    x = torch.from_numpy(to_input(rgb, depth)).contiguous(memory_format=torch.channels_last)
+    with torch.inference_mode():
+        y = model.network()(x).numpy()
+    best, lead = model.scores(rgb, depth)
+    every = np.arange(1, len(model.classes))
+    b2, l2 = model.scores(rgb, depth, asked=every)
+    assert np.array_equal(best, b2) and np.allclose(lead, l2)
+    c = int(frames.meta["object_class"][0])
+    b3, l3 = model.scores(rgb, depth, asked=[c])
+    assert np.all(b3 == c) and np.allclose(l3, y[:, c] - y[:, 0], atol=1e-5)
+    pair = [c, 1 if c != 1 else 2]
+    b4, l4 = model.scores(rgb, depth, asked=np.array([pair, pair]))
+    top = np.where(y[:, pair[0]] >= y[:, pair[1]], pair[0], pair[1])
+    assert np.array_equal(b4, top)
+    assert np.allclose(l4, np.maximum(y[:, pair[0]], y[:, pair[1]]) - y[:, 0], atol=1e-5)
 
 
 def test_a_memorised_model_lets_the_modular_agent_find_nearly_every_object(memorised,
@@ -223,6 +258,7 @@ def test_the_command_line_trains_scores_and_plays(tiny_dataset, memorised, tmp_p
     model = tmp_path / "v.model"
     assert cli("vision-model", "train", str(tiny_dataset), "-o", str(model), "--frames", "9",
                "--epochs", "1", "--crop", "64", "--batch", "4", "--val-episodes", "1",
+               "--path-views", "1", "--look-views", "1",
                "--workers", "1", "--threads", "1", "--seed", "1") == 0
     assert model.with_suffix(".log.csv").is_file() and model.with_suffix(".curve.png").is_file()
     from fallgen.dataset.manifest import manifest_sha256

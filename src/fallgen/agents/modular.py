@@ -89,11 +89,13 @@ class GoalPredictor(Protocol):
 @runtime_checkable
 class Detector(Protocol):
     """Segments object categories in an observation: (H, W) int array of indices into the
-    dataset's category labels (-1: none), like the ``category_seg`` oracle."""
+    dataset's category labels (-1: none), like the ``category_seg`` oracle. ``targets``
+    (indices into the labels) are the categories the agent looks for: a detector may answer
+    for those alone."""
 
     sensors: tuple[str, ...]
 
-    def segment(self, obs: Mapping[str, np.ndarray]) -> np.ndarray: ...
+    def segment(self, obs: Mapping[str, np.ndarray], targets: np.ndarray) -> np.ndarray: ...
 
 
 @dataclass
@@ -211,7 +213,7 @@ class ModularAgent:
         if "segmentation" in self.oracles:
             return np.asarray(obs["category_seg"]).reshape(obs["depth"].shape[:2])
         if self.detector is not None:
-            return np.asarray(self.detector.segment(obs))
+            return np.asarray(self.detector.segment(obs, self.target_idx))
         return None
 
     def _see(self, obs: Mapping[str, np.ndarray], pose: AgentPose) -> int:

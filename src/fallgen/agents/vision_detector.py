@@ -31,16 +31,28 @@ class VisionDetector:
 
         self.model = model if isinstance(model, VisionModel) else VisionModel.load(Path(model))
         self.lookup = self.model.category_lookup()
+        self.class_of = {int(c): k for k, c in enumerate(self.lookup) if c >= 0}
         self.threads, self.device, self.margin = int(threads), device, margin
 
-    def segment(self, obs: Mapping[str, np.ndarray]) -> np.ndarray:
-        """(H, W) int16 indices into the dataset's category labels (-1: no target)."""
+    def segment(self, obs: Mapping[str, np.ndarray], targets=None) -> np.ndarray:
+        """(H, W) int16 indices into the dataset's category labels (-1: no target).
+        ``targets``: the categories the agent looks for (indices into the labels); when
+        they are fewer than the model's, the network is asked for those alone (a pixel is
+        the likeliest of them where it outscores ``other`` by the model's ask margin)."""
         from fallgen.learn.runtime import session
 
         rgb = np.asarray(obs["rgb"])[None]
         depth = np.asarray(obs["depth"], np.float32).reshape(rgb.shape[1:3])[None]
+        asked = None
+        if targets is not None:
+            asked = sorted({self.class_of[int(t)] for t in np.ravel(targets)
+                            if int(t) in self.class_of})
+            if not asked or len(asked) >= len(self.class_of):
+                asked = None
+        margin = self.margin if self.margin is not None or asked is None else None
         with session(self.threads, deterministic=False):
-            classes = self.model.predict(rgb, depth, self.margin, self.device)[0]
+            classes = self.model.predict(rgb, depth, margin, self.device,
+                                         None if asked is None else np.asarray(asked))[0]
         return self.lookup[classes]
 
 

@@ -144,7 +144,7 @@ def _read_json(path: Path) -> dict | None:
 def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
                cross_episodes: int = 200, workers: int = 1, seed: int = 0, trees: int = 300,
                data_dir: str | Path | None = None, vision: bool = True,
-               vision_frames: int = 18000, vision_epochs: int = 8, device: str = "cpu",
+               vision_frames: int = 24000, vision_epochs: int = 4, device: str = "cpu",
                vision_model: str | Path | None = None,
                log: Callable[[str], None] = lambda _: None,
                progress: Callable[[str, int, int], None] | None = None) -> TableRun:

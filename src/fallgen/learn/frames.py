@@ -73,8 +73,8 @@ class FrameSpec:
     """Which frames an episode gives besides its step-0 view: ``path`` views along its
     expert's path and ``look`` views of the object from near; ``seed`` for their poses."""
 
-    path: int = 1
-    look: int = 1
+    path: int = 2
+    look: int = 3
     seed: int = 0
 
     @property

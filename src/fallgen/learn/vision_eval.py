@@ -41,30 +41,37 @@ from fallgen.learn.vision_model import (
 
 def predict_store(model: VisionModel, store: FrameStore, device=None, batch: int = 8,
                   progress: Callable[[int], None] | None = None
-                  ) -> tuple[np.ndarray, np.ndarray]:
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The model's (best class, lead over ``other``) at half resolution for every frame of
-    ``store`` (see :meth:`VisionModel.scores`)."""
+    ``store`` (see :meth:`VisionModel.scores`), and the lead of each frame's own object
+    class (its category asked for)."""
     n = len(store)
-    h, w = store.label.shape[1] // 2, store.label.shape[2] // 2
+    h, w = (store.label.shape[1] + 1) // 2, (store.label.shape[2] + 1) // 2
     best = np.zeros((n, h, w), np.uint8)
     lead = np.zeros((n, h, w), np.float32)
+    own = np.zeros((n, h, w), np.float32)
     for k in range(0, n, batch):
         sl = slice(k, min(k + batch, n))
-        best[sl], lead[sl] = model.scores(np.asarray(store.rgb[sl]),
-                                          np.asarray(store.depth[sl], np.float32), device)
+        rgb, depth = np.asarray(store.rgb[sl]), np.asarray(store.depth[sl], np.float32)
+        best[sl], lead[sl] = model.scores(rgb, depth, device)
+        cls = np.maximum(store.meta["object_class"][sl], 1)[:, None]
+        own[sl] = model.scores(rgb, depth, device, asked=cls)[1]
         if progress:
             progress(sl.stop - sl.start)
-    return best, lead
+    return best, lead, own
 
 
 def frame_scores(store: FrameStore, best: np.ndarray, lead: np.ndarray, margin: float,
-                 n_classes: int, zones: Sequence[str] | None = None) -> dict:
+                 n_classes: int, zones: Sequence[str] | None = None,
+                 own: np.ndarray | None = None, ask_margin: float = 0.0) -> dict:
     """The scores of predictions (:func:`predict_store`) at ``margin`` against ``store``'s
-    labels; ``zones`` (per frame, optional) for the found rates by zone kind."""
+    labels; ``zones`` (per frame, optional) for the found rates by zone kind; with ``own``
+    (the lead of each frame's object class) also ``found_asked`` and ``false_alarms_asked``:
+    the same counts when the object's category is asked for, at ``ask_margin``."""
     confusion = np.zeros((n_classes, n_classes), np.int64)
-    found = visible = alarms = 0
+    found = visible = alarms = found_a = alarms_a = 0
     n_found = n_visible = n_alarm = 0
-    by_zone: dict[str, list[int]] = defaultdict(lambda: [0, 0])
+    by_zone: dict[str, list[int]] = defaultdict(lambda: [0, 0, 0])
     meta = store.meta
     for i in range(len(store)):
         pred = full_size(labels_at(best[i], lead[i], margin))
@@ -74,35 +81,49 @@ def frame_scores(store: FrameStore, best: np.ndarray, lead: np.ndarray, margin: 
                                  minlength=n_classes * n_classes).reshape(n_classes, n_classes)
         oc, op = int(meta["object_class"][i]), int(meta["object_pixels"][i])
         near = float(meta["distance_m"][i]) <= FOUND_WITHIN_M
-        hit = int(((pred == oc) & ((lab & TARGET_BIT) != 0)).sum()) >= FOUND_PIXELS
+        mine = (lab & TARGET_BIT) != 0
+        hit = int(((pred == oc) & mine).sum()) >= FOUND_PIXELS
+        asked = full_size((own[i] > ask_margin)[None].astype(np.uint8))[0] > 0 \
+            if own is not None else None
+        hit_a = asked is not None and int((asked & mine).sum()) >= FOUND_PIXELS
         if near and op >= FOUND_SHOWN_PIXELS:
             n_found += 1
             found += hit
+            found_a += hit_a
             if zones is not None:
-                by_zone[zones[i]][0] += 1
-                by_zone[zones[i]][1] += hit
+                z = by_zone[zones[i]]
+                z[0], z[1], z[2] = z[0] + 1, z[1] + hit, z[2] + hit_a
         if near and op >= FOUND_PIXELS:
             n_visible += 1
             visible += hit
         if op < FOUND_PIXELS:
             n_alarm += 1
             alarms += int((pred == oc).sum()) >= FOUND_PIXELS
+            alarms_a += asked is not None and int(asked.sum()) >= FOUND_PIXELS
     inter = np.diag(confusion).astype(float)
     union = confusion.sum(0) + confusion.sum(1) - inter
     iou = np.where(union > 0, inter / np.maximum(union, 1), np.nan)
     targets = iou[1:]
-    return {
+    nan = float("nan")
+    out = {
         "frames": len(store), "margin": float(margin),
         "iou": iou, "miou": float(np.nanmean(targets)) if np.isfinite(targets).any() else 0.0,
-        "found": found / n_found if n_found else float("nan"), "found_frames": n_found,
-        "found_visible": visible / n_visible if n_visible else float("nan"),
+        "found": found / n_found if n_found else nan, "found_frames": n_found,
+        "found_visible": visible / n_visible if n_visible else nan,
         "visible_frames": n_visible,
-        "false_alarms": alarms / n_alarm if n_alarm else float("nan"),
+        "false_alarms": alarms / n_alarm if n_alarm else nan,
         "false_alarm_frames": n_alarm,
-        "found_by_zone_kind": {z: {"frames": a, "found": b / a} for z, (a, b) in
+        "found_by_zone_kind": {z: {"frames": a, "found": b / a} for z, (a, b, _) in
                                sorted(by_zone.items())},
         "confusion": confusion,
     }
+    if own is not None:
+        out.update({"ask_margin": float(ask_margin),
+                    "found_asked": found_a / n_found if n_found else nan,
+                    "false_alarms_asked": alarms_a / n_alarm if n_alarm else nan,
+                    "found_asked_by_zone_kind": {z: {"frames": a, "found": c / a} for
+                                                 z, (a, _, c) in sorted(by_zone.items())}})
+    return out
 
 
 def inference_ms(model: VisionModel, store: FrameStore, frames: int = 30) -> float:
@@ -124,10 +145,11 @@ def evaluate(model: VisionModel, ds, store: FrameStore, device=None,
              progress: Callable[[int], None] | None = None) -> tuple[dict, dict]:
     """(scores.json's content, the arrays for the pictures: ``confusion``, ``best``,
     ``lead``) of ``model`` on ``store`` (frames of ``ds``)."""
-    best, lead = predict_store(model, store, device=device, progress=progress)
+    best, lead, own = predict_store(model, store, device=device, progress=progress)
     zone = {r["episode_id"]: r["zone_kind"] for r in ds.rows()}
     zones = [zone.get(int(e), "?") for e in store.meta["episode_id"]]
-    sc = frame_scores(store, best, lead, model.margin, len(model.classes), zones)
+    sc = frame_scores(store, best, lead, model.margin, len(model.classes), zones, own,
+                      model.ask_margin)
     iou = sc.pop("iou")
     confusion = sc.pop("confusion")
     sc["per_category_iou"] = {name: (None if not np.isfinite(v) else float(v))
@@ -145,13 +167,17 @@ def evaluate(model: VisionModel, ds, store: FrameStore, device=None,
                          f"{FOUND_WITHIN_M:g} m",
         "false_alarms": f"frames where it shows < {FOUND_PIXELS} pixels: its category predicted "
                         f"on >= {FOUND_PIXELS} pixels",
+        "found_asked": "found, its category asked for (the agent that knows what it looks "
+                       "for): pixels where that category outscores other by the ask margin",
+        "false_alarms_asked": "false alarms, its category asked for",
         "miou": "mean IoU over the target categories that occur in the truth or the "
                 "prediction (pixels of all frames pooled)"}
     sc["inference_ms_per_frame_1_thread"] = inference_ms(model, store)
-    sc["model"] = {"margin": model.margin, "manifest_sha256": model.manifest_sha256,
+    sc["model"] = {"margin": model.margin, "ask_margin": model.ask_margin,
+                   "manifest_sha256": model.manifest_sha256,
                    **{k: model.meta.get(k) for k in ("train_frames", "train_seconds", "loss",
                                                      "settings")}}
-    return sc, {"confusion": confusion, "best": best, "lead": lead}
+    return sc, {"confusion": confusion, "best": best, "lead": lead, "own": own}
 
 
 # -- pictures -------------------------------------------------------------------------------------

@@ -6,7 +6,10 @@ split (``fallgen vision-model train``).
 Input: RGB scaled to about zero mean and unit spread, and the log of depth likewise (4
 channels); output: class scores at 150 x 150, the label map doubled to 300 x 300. A pixel is an
 object's when its best target category outscores ``other`` by :attr:`VisionModel.margin`
-(chosen on the validation split when it is trained).
+(chosen on the validation split when it is trained). An agent that knows which categories it
+looks for asks for those (``asked``): a pixel is then of the best of them where it outscores
+``other`` by :attr:`VisionModel.ask_margin`, whatever the other categories score (the network
+knows an object from the floor far better than a fork from a knife).
 
 Training: :mod:`fallgen.learn.vision_train`.
 
@@ -58,6 +61,8 @@ class VisionModel:
     manifest_sha256: str = ""
     margin: float = 0.0
     meta: dict = field(default_factory=dict)
+    #: the margin when categories are asked for (:meth:`scores`' ``asked``)
+    ask_margin: float = 0.0
     _net: object = field(default=None, repr=False, compare=False)
     _device: object = field(default=None, repr=False, compare=False)
 
@@ -79,25 +84,41 @@ class VisionModel:
             self._net, self._device = fused(net).to(device), device
         return self._net
 
-    def scores(self, rgb: np.ndarray, depth: np.ndarray, device=None
-               ) -> tuple[np.ndarray, np.ndarray]:
+    def scores(self, rgb: np.ndarray, depth: np.ndarray, device=None,
+               asked: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(the best target class (N, h, w) uint8 at half resolution, how much its score
-        beats ``other``'s (N, h, w) float32) for RGB (N, H, W, 3) and depth (N, H, W)."""
+        beats ``other``'s (N, h, w) float32) for RGB (N, H, W, 3) and depth (N, H, W).
+        ``asked``: the classes to choose from ((k,) for every frame, or (N, k) per frame)
+        instead of all the targets, for an agent that knows what it looks for: it asks
+        which pixels are of those categories, not which category each pixel is."""
         torch = require_torch()
         net = self.network(device)
         x = torch.from_numpy(to_input(rgb, depth)).to(self._device)
         x = x.contiguous(memory_format=torch.channels_last)
         with torch.inference_mode():
-            y = net(x).permute(0, 2, 3, 1)
-            best, idx = y[..., 1:].max(-1)
-            lead = best - y[..., 0]
-        return (idx + 1).to(torch.uint8).cpu().numpy(), lead.float().cpu().numpy()
+            y = net(x)
+            if asked is None:
+                best, idx = y[:, 1:].max(1)
+                idx = idx + 1
+            else:
+                n, _, h, w = y.shape
+                a = np.broadcast_to(np.asarray(asked, np.int64).reshape(
+                    (1, -1) if np.ndim(asked) <= 1 else (n, -1)), (n, np.shape(asked)[-1]))
+                a = torch.from_numpy(np.array(a, copy=True)).to(y.device)
+                cand = y.gather(1, a[:, :, None, None].expand(-1, -1, h, w))
+                best, j = cand.max(1)
+                idx = a.gather(1, j.reshape(n, -1)).reshape(n, h, w)
+            lead = best - y[:, 0]
+        return idx.to(torch.uint8).cpu().numpy(), lead.float().cpu().numpy()
 
     def predict(self, rgb: np.ndarray, depth: np.ndarray, margin: float | None = None,
-                device=None) -> np.ndarray:
-        """(N, H, W) uint8 classes (0: other) of RGB (N, H, W, 3) and depth (N, H, W)."""
-        best, lead = self.scores(rgb, depth, device)
-        return full_size(labels_at(best, lead, self.margin if margin is None else margin))
+                device=None, asked: np.ndarray | None = None) -> np.ndarray:
+        """(N, H, W) uint8 classes (0: other) of RGB (N, H, W, 3) and depth (N, H, W);
+        ``asked`` as for :meth:`scores` (then :attr:`ask_margin` by default)."""
+        best, lead = self.scores(rgb, depth, device, asked)
+        if margin is None:
+            margin = self.margin if asked is None else self.ask_margin
+        return full_size(labels_at(best, lead, margin))
 
     def category_lookup(self) -> np.ndarray:
         """Class -> index into :attr:`category_labels` (-1 for ``other``)."""
@@ -117,7 +138,7 @@ class VisionModel:
                     "state": {k: v.detach().cpu() for k, v in self.state.items()},
                     "classes": list(self.classes), "category_labels": list(self.category_labels),
                     "manifest_sha256": self.manifest_sha256, "margin": float(self.margin),
-                    "meta": self.meta}, buf)
+                    "ask_margin": float(self.ask_margin), "meta": self.meta}, buf)
         return write_bytes(Path(path), buf.getvalue())
 
     @staticmethod
@@ -143,7 +164,8 @@ class VisionModel:
             raise InputError(path, "config", f"unreadable network shape ({e})") from None
         m = VisionModel(config, dict(d["state"]), tuple(d["classes"]),
                         tuple(d["category_labels"]), str(d.get("manifest_sha256", "")),
-                        float(d.get("margin", 0.0)), dict(d.get("meta", {})))
+                        float(d.get("margin", 0.0)), dict(d.get("meta", {})),
+                        float(d.get("ask_margin", d.get("margin", 0.0))))
         try:
             m.network()
         except RuntimeError as e:
