@@ -13,6 +13,9 @@ from near the object):
 - ``false_alarms``: the share of frames where the fallen object is not visible (fewer than
   :data:`FOUND_PIXELS` of its pixels) in which its category is predicted on at least
   :data:`FOUND_PIXELS` pixels (a distractor taken for it, or nothing taken for something);
+- ``found_asked``, ``false_alarms_asked``: the same two with the object's category asked for
+  (:meth:`VisionModel.scores`' ``asked``, at the model's ``ask_margin``): what the agent that
+  knows which category it looks for (from the sound, or the category oracle) sees;
 - the pixel confusion matrix (a PNG, rows the truth), a strip of views with the truth and the
   prediction side by side (a PNG), and the learning curve of training (a PNG and a CSV).
 """
