@@ -152,7 +152,7 @@ def failure_lines(results: Mapping[str, dict], labels: Mapping[str, str],
                   worst: int = 8) -> list[str]:
     """table.md's section on where the rows with the visual module fail: success by zone
     kind (the rows of :data:`FAILURE_ROWS` that ran), and the categories where the learned
-    eyes lose most against ground-truth segmentation (:data:`CATEGORY_PAIRS`)."""
+    eyes lose the most episodes against ground-truth segmentation (:data:`CATEGORY_PAIRS`)."""
     keys = [k for k in FAILURE_ROWS if k in results]
     if not any(k in results for k, _ in CATEGORY_PAIRS):
         return []
@@ -169,7 +169,9 @@ def failure_lines(results: Mapping[str, dict], labels: Mapping[str, str],
             continue
         a = results[learned].get("by_category", {})
         b = results[truth].get("by_category", {})
-        gaps = sorted((b[c]["success"] - a[c]["success"], c) for c in a if c in b)[::-1]
+        # most episodes lost first (a category of one episode does not lead the list)
+        gaps = sorted(((a[c]["success"] - b[c]["success"]) * a[c]["n"], c)
+                      for c in a if c in b)
         cells = [f"{c} {b[c]['success']:.2f} -> {a[c]['success']:.2f} ({a[c]['n']})"
                  for _, c in gaps[:worst]]
         out += ["", f"Categories where {labels.get(learned, learned)} loses most against "
