@@ -42,20 +42,12 @@ import time
 from collections import Counter
 from pathlib import Path
 
+from provenance import cpu_model  # bench/, beside this script
+
 REPO = Path(__file__).resolve().parents[1]
 ORIGINAL_S = 8 * 3600.0
 GOAL_S = 15 * 60.0
 GOAL_WORKER_MB = 1024.0
-
-
-def cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
 
 
 def _cpu(who: int) -> float:
