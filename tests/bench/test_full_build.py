@@ -31,8 +31,10 @@ def _check_build_report(rep: dict, episodes: int) -> None:
     assert -0.02 <= w["total"] - (w["rehearse"] + w["generate"]) <= 0.25, w
     assert min(w["rehearse"], w["generate"]) > 0
     assert rep["meets_goal"] == (w["total"] < GOAL_MIN)
-    assert rep["speedup_vs_original_8h"] == pytest.approx(ORIGINAL_H * 60 / w["total"],
-                                                          rel=0.02)
+    # the total is stored to 0.01 min, the speed-up to 0.1: the true wall lies within half a
+    # unit of the stored total (a short tiny build's 8.1 s is stored as 0.14 min)
+    lo, hi = (ORIGINAL_H * 60 / (w["total"] + d) for d in (0.005, -0.005))
+    assert lo - 0.05 <= rep["speedup_vs_original_8h"] <= hi + 0.05, (rep, w)
     assert rep["generation"]["episodes"] == episodes
     assert rep["bytes_per_episode"] == rep["bytes"] // episodes
     peaks = [x["peak_rss_mb"] for ph in ("rehearsal", "generation")
