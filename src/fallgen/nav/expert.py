@@ -21,6 +21,11 @@ tilts whose view frustum can hold the object (:func:`fallgen.nav.lattice.tilt_bo
 references are exact over the renderer's verdicts, and the expert's SPL is 1. Its SNA is 1
 where its plan (fewest moves first) also has the fewest actions, below 1 where fewer actions
 need more moves (``tests/nav`` checks both searches against a brute-force breadth-first search).
+
+Where no reachable pose sees the object, the search would enter states until its limits (the
+lattice is dense); once it has grown long, the expert tries the proof of
+:func:`fallgen.nav.hidden.hidden_everywhere` instead, and answers :class:`NoPath` where it holds
+(it never holds where a pose sees the object, so no plan changes).
 """
 
 from __future__ import annotations
@@ -31,8 +36,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from fallgen.nav.agent import (DOWN, FORWARD, FOUND, HEADING_VECTORS, LEFT, MAX_ACTIONS, RIGHT,
-                               STEP_FRACTIONS, STEP_M, SUCCESS_DISTANCE_M, TURN_DEG, UP,
-                               AgentSpec, Pose, horizontal_distance_m)
+                               STEP_FRACTIONS, STEP_M, STEP_SAMPLES, SUCCESS_DISTANCE_M,
+                               TURN_DEG, UP, AgentSpec, Pose, horizontal_distance_m)
+from fallgen.nav.hidden import hidden_everywhere
 from fallgen.nav.lattice import Lattice, LatticeFull, trace
 from fallgen.nav.occupancy import OccupancyGrid
 
@@ -46,6 +52,9 @@ Unseen = Callable[[Pose], bool]
 MAX_VISIBILITY_CHECKS = 1000
 #: Lattice states one search may enter before it gives up (about 80 bytes each).
 MAX_STATES = 2_000_000
+#: A search that enters this many states or asks this many verdicts tries the proof that no
+#: reachable pose sees the object (most searches end sooner; the proof costs ~0.01-1 s).
+PROOF_AFTER_STATES, PROOF_AFTER_VERDICTS = 50_000, 50
 
 
 @dataclass(frozen=True)
@@ -88,6 +97,32 @@ def fewest_tilts(pose: Pose, at_least: int, spec: AgentSpec, visible: Callable[[
     return None, asked
 
 
+class _Proof:
+    """The proof that no reachable pose sees the object
+    (:func:`fallgen.nav.hidden.hidden_everywhere`), tried once, when a search has grown long
+    (:data:`PROOF_AFTER_STATES`, :data:`PROOF_AFTER_VERDICTS`): where it holds, the search
+    would go on until it had entered every state or hit its limits. Calling it raises
+    :class:`NoPath` if the proof holds."""
+
+    def __init__(self, start: Pose, grid: OccupancyGrid, target, spec: AgentSpec,
+                 sight: tuple | None) -> None:
+        self._args = (start, grid, target, spec)
+        self._sight, self._tried = sight, sight is None
+
+    def __call__(self) -> None:
+        if self._tried:
+            return
+        self._tried = True
+        start, grid, target, spec = self._args
+        cells = hidden_everywhere(_table(grid, spec), grid.resolution, (start.x, start.y),
+                                  np.asarray(target, float)[:2], SUCCESS_DISTANCE_M,
+                                  spec.camera_height_m, STEP_M / (STEP_SAMPLES - 1),
+                                  self._sight)
+        if cells is not None:
+            raise NoPath(f"the scene hides the object from every reachable cell within reach "
+                         f"({cells} cells)")
+
+
 @dataclass(frozen=True)
 class Limits:
     """How much one search may do before it gives up (:class:`SearchLimit`): renderer
@@ -97,14 +132,19 @@ class Limits:
     states: int = MAX_STATES
 
 
+def _table(grid: OccupancyGrid, spec: AgentSpec) -> np.ndarray:
+    """The occupancy table of the simulator's check, with a border for "outside the grid"
+    (clearance 0 there, as grid.clearance_at has it)."""
+    ok = np.full((grid.shape[0] + 2, grid.shape[1] + 2), 0.0 >= spec.radius_m)
+    ok[1:-1, 1:-1] = grid.clearance >= spec.radius_m
+    return ok
+
+
 def _search(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray, spec: AgentSpec,
             move_cost: int, turn_cost: int, visible: Callable[[Pose], bool],
             limits: Limits, may_see: MaySee | None, unseen: Unseen | None,
-            sight: tuple | None) -> tuple[Plan, int]:
-    # the occupancy table of the simulator's check, with a border for "outside the grid"
-    # (clearance 0 there, as grid.clearance_at has it)
-    ok = np.full((grid.shape[0] + 2, grid.shape[1] + 2), 0.0 >= spec.radius_m)
-    ok[1:-1, 1:-1] = grid.clearance >= spec.radius_m
+            sight: tuple | None, proof: _Proof | None) -> tuple[Plan, int]:
+    ok = _table(grid, spec)
     target_xy = np.asarray(target, float)[:2]
     tilt_cost = min(move_cost, turn_cost)
     lat = Lattice(ok=ok, resolution=grid.resolution, step_m=STEP_M,
@@ -118,10 +158,15 @@ def _search(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray, spec:
     lat.start(start.x, start.y, start.heading)
     confirmed: dict[int, int] = {}  # state -> its signed tilt steps, once rendered
     renders = 0
+    states = limits.states if proof is None else min(limits.states, PROOF_AFTER_STATES)
     while True:
         try:
-            cand = lat.next_candidate(limits.states)
+            cand = lat.next_candidate(states)
         except LatticeFull as e:
+            if states < limits.states:
+                proof()  # NoPath if it holds
+                states = limits.states
+                continue
             raise SearchLimit(f"gave up after {renders} verdicts: {e}") from None
         if cand is None:
             raise NoPath(f"no reachable pose sees the object ({renders} views rendered, "
@@ -132,6 +177,8 @@ def _search(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray, spec:
         if t is None:
             if horizontal_distance_m(pose, target_xy) > SUCCESS_DISTANCE_M:
                 continue  # within the search's rounding slack, outside the judge's reach
+            if proof is not None and renders >= PROOF_AFTER_VERDICTS:
+                proof()  # NoPath if it holds
             if renders >= limits.verdicts:
                 raise SearchLimit(f"gave up after {renders} views rendered, {lat.states} "
                                   "poses searched")
@@ -174,7 +221,7 @@ def expert(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray,
     plan = plan_to_see(start, grid, target, corners, visible, spec, limits, may_see, unseen,
                        sight)
     fewest, total = _search(start, grid, target, corners, spec, 1, 1, visible, limits,
-                            may_see, unseen, sight)
+                            may_see, unseen, sight, None)
     if total != len(fewest.actions) or total > len(plan.actions):
         raise AssertionError(f"fewest-actions search: {total} actions, plan "
                              f"{len(fewest.actions)}, expert {len(plan.actions)}")
@@ -188,7 +235,7 @@ def plan_to_see(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray,
     """The expert's own plan from ``start`` (fewest forward moves, then fewest turns and
     tilts; the first search of :func:`expert`), without the fewest-actions search."""
     plan, _ = _search(start, grid, target, corners, spec, 1000, 1, visible, limits, may_see,
-                      unseen, sight)
+                      unseen, sight, _Proof(start, grid, target, spec, sight))
     if len(plan.actions) > MAX_ACTIONS:
         raise NoPath(f"the shortest plan takes {len(plan.actions)} actions, more than "
                      f"{MAX_ACTIONS}")

@@ -116,6 +116,48 @@ def geom_triangles(model: mujoco.MjModel, data: mujoco.MjData, g: int) -> np.nda
     return local @ rot.T + pos
 
 
+def coplanar_pairs(t: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """For each triangle of ``t`` (M, 3, 3; unit normals ``n``), the index of a triangle
+    that shares an edge with it, lies in its plane and makes a convex quadrilateral with it
+    (a box face's two halves), or -1: each triangle in one pair at most."""
+    m = len(t)
+    partner = np.full(m, -1, np.int64)
+    if m < 2:
+        return partner
+    _, vid = np.unique(t.reshape(-1, 3).round(9), axis=0, return_inverse=True)
+    vid = vid.reshape(m, 3)
+    a, b = vid, np.roll(vid, -1, axis=1)  # edge e of a triangle: vertices e, e + 1
+    key = (np.minimum(a, b) * (int(vid.max()) + 1) + np.maximum(a, b)).ravel()
+    order = np.argsort(key, kind="stable")
+    same = np.flatnonzero(key[order][1:] == key[order][:-1])
+    ti, te, tj = order[same] // 3, order[same] % 3, order[same + 1] // 3
+    keep = (ti != tj) & (np.einsum("ij,ij->i", n[ti], n[tj]) >= 1.0 - 1e-9)
+    tol = 1e-9 * (1.0 + float(np.abs(t).max()))
+    for i, e, j in zip(ti[keep].tolist(), te[keep].tolist(), tj[keep].tolist()):
+        if partner[i] >= 0 or partner[j] >= 0:
+            continue
+        if np.abs((t[j] - t[i, 0]) @ n[i]).max() > tol:
+            continue
+        if _quad(t[i], t[j], e) is not None:
+            partner[i], partner[j] = j, i
+    return partner
+
+
+def _quad(a: np.ndarray, b: np.ndarray, e: int) -> np.ndarray | None:
+    """The quadrilateral of triangle ``a`` and triangle ``b`` joined along ``a``'s edge
+    ``e`` (vertices e, e + 1), in ``a``'s order; None if it is not strictly convex."""
+    u, v = a[e], a[(e + 1) % 3]
+    far = [x for x in b if not (np.allclose(x, u, atol=1e-9) or np.allclose(x, v, atol=1e-9))]
+    if len(far) != 1:
+        return None
+    q = np.array([a[(e + 1) % 3], a[(e + 2) % 3], a[e], far[0]])
+    nrm = np.cross(a[1] - a[0], a[2] - a[0])
+    for k in range(4):
+        if np.cross(q[(k + 1) % 4] - q[k], q[(k + 2) % 4] - q[(k + 1) % 4]) @ nrm <= 0.0:
+            return None
+    return q
+
+
 def _round(model: mujoco.MjModel, g: int) -> bool:
     return int(model.geom_type[g]) in (mujoco.mjtGeom.mjGEOM_SPHERE,
                                        mujoco.mjtGeom.mjGEOM_ELLIPSOID,
@@ -201,7 +243,7 @@ class SceneFaces:
     geoms that stay put (a room's) and make one for the objects of each scene."""
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, geoms) -> None:
-        tris, spheres, owners = [], [], []
+        tris, spheres, owners, partners = [], [], [], []
         verts, slo, shi, ssph, dirs, support = [], [], [], [], [], []
         for g in geoms:
             if not drawn_opaque(model, g):
@@ -231,6 +273,8 @@ class SceneFaces:
                 ssph.append([*data.geom_xpos[g], r])
                 dirs.append(dd)
                 support.append((v @ dd.T).max(0))
+            pair = coplanar_pairs(t, n)
+            partners.append(np.where(pair >= 0, pair + sum(len(x) for x in tris), -1))
             tris.append(t)
             spheres.append(np.tile([*data.geom_xpos[g], r], (len(t), 1)))
             owners.append(np.full(len(t), solid, np.int64))
@@ -243,6 +287,7 @@ class SceneFaces:
         self.hi = np.ascontiguousarray(self.triangles.max(1)) if len(tris) else np.zeros((0, 3))
         self.spheres = _cat(spheres, (0, 4))
         self.owner = _cat(owners, (0,), np.int64)
+        self.partner = _cat(partners, (0,), np.int64)
         self.solid_verts = _cat(verts, (0, 3))
         self.solid_start = np.cumsum([0] + [len(v) for v in verts]).astype(np.int64)
         self.solid_lo, self.solid_hi = _cat([np.atleast_2d(x) for x in slo], (0, 3)), \
@@ -263,7 +308,8 @@ class FaceSet:
         fields = ("triangles", "normals", "lo", "hi", "spheres", "owner", "behind")
         keep: dict[str, list] = {f: [] for f in fields}
         solids: dict[str, list] = {f: [] for f in ("verts", "lo", "hi", "sph", "planes")}
-        starts, n_solids = [0], 0
+        starts, n_solids, offset = [0], 0, 0
+        keep["partner"] = []
         for part in parts:
             behind = behind_planes(part.triangles, part.normals, points, behind_m)
             # each solid's separating planes
@@ -287,6 +333,11 @@ class FaceSet:
             owner = np.where(part.owner >= 0, number[np.maximum(part.owner, 0)], -1) \
                 if len(number) else np.full(len(part.owner), -1, np.int64)
             use = behind | (owner >= 0)
+            index = np.cumsum(use) - 1 + offset
+            pair = np.where(part.partner >= 0, part.partner, 0)
+            keep["partner"].append(np.where((part.partner >= 0) & use[pair], index[pair],
+                                            -1)[use])
+            offset += int(use.sum())
             for f, x in (("triangles", part.triangles), ("normals", part.normals),
                          ("lo", part.lo), ("hi", part.hi), ("spheres", part.spheres),
                          ("owner", owner), ("behind", behind)):
@@ -297,6 +348,8 @@ class FaceSet:
         self.spheres = _cat(keep["spheres"], (0, 4))
         self.owner = _cat(keep["owner"], (0,), np.int64)
         self.behind = _cat(keep["behind"], (0,), np.bool_)
+        #: the index of the face that makes a convex quadrilateral with each (or -1)
+        self.partner = _cat(keep["partner"], (0,), np.int64)
         self.solid_verts = _cat(solids["verts"], (0, 3))
         self.solid_start = np.array(starts, np.int64)
         self.solid_lo = np.array(solids["lo"], float).reshape(-1, 3)
