@@ -116,46 +116,46 @@ def geom_triangles(model: mujoco.MjModel, data: mujoco.MjData, g: int) -> np.nda
     return local @ rot.T + pos
 
 
-def coplanar_pairs(t: np.ndarray, n: np.ndarray) -> np.ndarray:
-    """For each triangle of ``t`` (M, 3, 3; unit normals ``n``), the index of a triangle
-    that shares an edge with it, lies in its plane and makes a convex quadrilateral with it
-    (a box face's two halves), or -1: each triangle in one pair at most."""
+def coplanar_pairs(t: np.ndarray, n: np.ndarray, group: np.ndarray | None = None
+                   ) -> np.ndarray:
+    """For each triangle of ``t`` (M, 3, 3; unit normals ``n``), the index of a triangle of
+    the same ``group`` (e.g. its geom; all one group if None) that shares an edge with it, lies
+    in its plane and makes a strictly convex quadrilateral with it (a box face's two halves),
+    or -1: each triangle in one pair at most, the first such edge in index order."""
     m = len(t)
     partner = np.full(m, -1, np.int64)
     if m < 2:
         return partner
-    _, vid = np.unique(t.reshape(-1, 3).round(9), axis=0, return_inverse=True)
-    vid = vid.reshape(m, 3)
+    group = np.zeros(m, np.int64) if group is None else np.asarray(group, np.int64)
+    rows = np.ascontiguousarray(t.reshape(-1, 3).round(9) + 0.0)  # -0.0 -> 0.0
+    _, vid = np.unique(rows.view(np.dtype((np.void, 24))).ravel(), return_inverse=True)
+    vid = vid.reshape(m, 3).astype(np.int64)
     a, b = vid, np.roll(vid, -1, axis=1)  # edge e of a triangle: vertices e, e + 1
-    key = (np.minimum(a, b) * (int(vid.max()) + 1) + np.maximum(a, b)).ravel()
+    nv = int(vid.max()) + 1
+    key = ((group[:, None] * nv + np.minimum(a, b)) * nv + np.maximum(a, b)).ravel()
     order = np.argsort(key, kind="stable")
     same = np.flatnonzero(key[order][1:] == key[order][:-1])
     ti, te, tj = order[same] // 3, order[same] % 3, order[same + 1] // 3
     keep = (ti != tj) & (np.einsum("ij,ij->i", n[ti], n[tj]) >= 1.0 - 1e-9)
+    ti, te, tj = ti[keep], te[keep], tj[keep]
+    # j's far vertex: the one off the shared edge (exactly one)
+    ea, eb = vid[ti, te], vid[ti, (te + 1) % 3]
+    off = (vid[tj] != ea[:, None]) & (vid[tj] != eb[:, None])
+    one = off.sum(1) == 1
+    ti, te, tj, off = ti[one], te[one], tj[one], off[one]
+    far = t[tj, np.argmax(off, axis=1)]
     tol = 1e-9 * (1.0 + float(np.abs(t).max()))
-    for i, e, j in zip(ti[keep].tolist(), te[keep].tolist(), tj[keep].tolist()):
-        if partner[i] >= 0 or partner[j] >= 0:
-            continue
-        if np.abs((t[j] - t[i, 0]) @ n[i]).max() > tol:
-            continue
-        if _quad(t[i], t[j], e) is not None:
+    flat = np.abs(np.einsum("ij,ij->i", far - t[ti, 0], n[ti])) <= tol
+    q = np.stack([t[ti, (te + 1) % 3], t[ti, (te + 2) % 3], t[ti, te], far], axis=1)
+    nrm = np.cross(t[ti, 1] - t[ti, 0], t[ti, 2] - t[ti, 0])
+    convex = flat.copy()
+    for k in range(4):
+        turn = np.cross(q[:, (k + 1) % 4] - q[:, k], q[:, (k + 2) % 4] - q[:, (k + 1) % 4])
+        convex &= np.einsum("ij,ij->i", turn, nrm) > 0.0
+    for i, j in zip(ti[convex].tolist(), tj[convex].tolist()):
+        if partner[i] < 0 and partner[j] < 0:
             partner[i], partner[j] = j, i
     return partner
-
-
-def _quad(a: np.ndarray, b: np.ndarray, e: int) -> np.ndarray | None:
-    """The quadrilateral of triangle ``a`` and triangle ``b`` joined along ``a``'s edge
-    ``e`` (vertices e, e + 1), in ``a``'s order; None if it is not strictly convex."""
-    u, v = a[e], a[(e + 1) % 3]
-    far = [x for x in b if not (np.allclose(x, u, atol=1e-9) or np.allclose(x, v, atol=1e-9))]
-    if len(far) != 1:
-        return None
-    q = np.array([a[(e + 1) % 3], a[(e + 2) % 3], a[e], far[0]])
-    nrm = np.cross(a[1] - a[0], a[2] - a[0])
-    for k in range(4):
-        if np.cross(q[(k + 1) % 4] - q[k], q[(k + 2) % 4] - q[(k + 1) % 4]) @ nrm <= 0.0:
-            return None
-    return q
 
 
 def _round(model: mujoco.MjModel, g: int) -> bool:
@@ -243,7 +243,7 @@ class SceneFaces:
     geoms that stay put (a room's) and make one for the objects of each scene."""
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, geoms) -> None:
-        tris, spheres, owners, partners = [], [], [], []
+        tris, spheres, owners, groups = [], [], [], []
         verts, slo, shi, ssph, dirs, support = [], [], [], [], [], []
         for g in geoms:
             if not drawn_opaque(model, g):
@@ -273,8 +273,7 @@ class SceneFaces:
                 ssph.append([*data.geom_xpos[g], r])
                 dirs.append(dd)
                 support.append((v @ dd.T).max(0))
-            pair = coplanar_pairs(t, n)
-            partners.append(np.where(pair >= 0, pair + sum(len(x) for x in tris), -1))
+            groups.append(np.full(len(t), len(tris), np.int64))
             tris.append(t)
             spheres.append(np.tile([*data.geom_xpos[g], r], (len(t), 1)))
             owners.append(np.full(len(t), solid, np.int64))
@@ -287,7 +286,8 @@ class SceneFaces:
         self.hi = np.ascontiguousarray(self.triangles.max(1)) if len(tris) else np.zeros((0, 3))
         self.spheres = _cat(spheres, (0, 4))
         self.owner = _cat(owners, (0,), np.int64)
-        self.partner = _cat(partners, (0,), np.int64)
+        self.partner = coplanar_pairs(self.triangles, self.normals,
+                                      _cat(groups, (0,), np.int64))
         self.solid_verts = _cat(verts, (0, 3))
         self.solid_start = np.cumsum([0] + [len(v) for v in verts]).astype(np.int64)
         self.solid_lo, self.solid_hi = _cat([np.atleast_2d(x) for x in slo], (0, 3)), \
@@ -300,9 +300,10 @@ class SceneFaces:
 class FaceSet:
     """The occluders of one object in a scene made of ``parts`` (:class:`SceneFaces`): the
     faces with ``behind`` (the object lies at least ``behind_m`` behind the face's own plane)
-    or of a solid with separating ``planes`` (K, 12, 4: (n, d), the solid in n.x <= d and the
-    object at n.x >= d + ``behind_m``; ``nplanes`` of them), the rest left out. ``points``
-    (N, 3): points whose hull holds the object as drawn."""
+    or of a convex solid, each solid with its separating ``planes`` (K, 12, 4: (n, d), the
+    solid in n.x <= d and the object at n.x >= d + ``behind_m``; ``nplanes`` of them, maybe
+    none), the rest left out. ``points`` (N, 3): points whose hull holds the object as
+    drawn."""
 
     def __init__(self, parts: list[SceneFaces], points: np.ndarray, behind_m: float) -> None:
         fields = ("triangles", "normals", "lo", "hi", "spheres", "owner", "behind")
@@ -317,7 +318,7 @@ class FaceSet:
                 if len(part.dirs) else np.zeros((0, 12))
             ok = reach >= part.support + behind_m
             number = np.full(len(ok), -1, np.int64)
-            for k in np.flatnonzero(ok.any(1)):
+            for k in range(len(ok)):  # every convex solid, with or without planes
                 number[k] = n_solids
                 n_solids += 1
                 planes = np.zeros((12, 4))
@@ -350,6 +351,17 @@ class FaceSet:
         self.behind = _cat(keep["behind"], (0,), np.bool_)
         #: the index of the face that makes a convex quadrilateral with each (or -1)
         self.partner = _cat(keep["partner"], (0,), np.int64)
+        #: each solid's faces: ``face_start[k]`` to ``face_end[k]`` (they are consecutive)
+        self.face_start = np.zeros(n_solids, np.int64)
+        self.face_end = np.zeros(n_solids, np.int64)
+        mine = np.flatnonzero(self.owner >= 0)
+        if len(mine):
+            ids, first, count = np.unique(self.owner[mine], return_index=True,
+                                          return_counts=True)
+            self.face_start[ids] = mine[first]
+            self.face_end[ids] = mine[first] + count
+            if not np.array_equal(self.owner[mine], np.repeat(ids, count)):
+                raise AssertionError("a solid's faces are not consecutive")
         self.solid_verts = _cat(solids["verts"], (0, 3))
         self.solid_start = np.array(starts, np.int64)
         self.solid_lo = np.array(solids["lo"], float).reshape(-1, 3)

@@ -12,9 +12,10 @@ projections, Durand et al., SIGGRAPH 2000):
   images from every eye of the square lies in the hull of its points' images from the four
   corners (a central projection maps convex sets to convex sets, for the eyes about a point and
   for the points about an eye);
-- an occluder (a front-facing face, or a convex solid with a separating plane, under the point
-  proof's conditions, which here must hold at every eye of the square: they are linear in the
-  eye, or are tested on the square's box), cut to the slab between the eyes and Pi (a solid:
+- an occluder (a front-facing face, or a convex solid with a separating plane or whose every
+  face that can face an eye has the object behind its plane, under the point proof's
+  conditions, which here must hold at every eye of the square: they are linear in the eye, or
+  are tested on the square's box), cut to the slab between the eyes and Pi (a solid:
   its points there and where its points' segments cross the slab's planes), is convex: a point y
   of Pi is hidden behind a convex piece P from every eye of the square when it is from the four
   corners, because the eyes from which the segment to y meets P, {y + s (f - y): f in P,
@@ -227,7 +228,7 @@ def hidden_from_cell(x0, y0, x1, y1, z, kernel):
     the object from every eye in the square [x0, x1] x [y0, y1] at height ``z``: then no view
     from there shows any of it. False when it cannot be proven."""
     (tris, normals, lo, hi, spheres, owner, behind, sverts, sstart, slo, shi, ssph, planes,
-     nplanes, corners, points, near, partner) = kernel
+     nplanes, corners, points, near, partner, fstart, fend) = kernel
     eyes = np.array([[x0, y0, z], [x1, y0, z], [x1, y1, z], [x0, y1, z]])
     c0 = np.array([0.5 * (x0 + x1), 0.5 * (y0 + y1), z])
     w = np.empty(3)
@@ -316,6 +317,22 @@ def hidden_from_cell(x0, y0, x1, y1, z, kernel):
             if side:
                 ok = True
                 break
+        if not ok:
+            # or every face that can face an eye of the square (at some corner: it is linear
+            # in the eye) has the object behind its plane: a ray that meets the solid enters
+            # through such a face, and crosses its plane before the object
+            ok = fend[s] > fstart[s]
+            for i in range(fstart[s], fend[s]):
+                facing = False
+                for k in range(4):
+                    if normals[i, 0] * (eyes[k, 0] - tris[i, 0, 0]) + normals[i, 1] \
+                            * (eyes[k, 1] - tris[i, 0, 1]) + normals[i, 2] \
+                            * (eyes[k, 2] - tris[i, 0, 2]) >= -1e-9:
+                        facing = True
+                        break
+                if facing and not behind[i]:
+                    ok = False
+                    break
         if not ok:
             continue
         vs = _slab(_slab(sverts[sstart[s]:sstart[s + 1]], w, lvl, -1.0), w, front, 1.0)

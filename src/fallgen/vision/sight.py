@@ -210,11 +210,13 @@ class Occluders:
     @property
     def kernel(self) -> tuple:
         """The arrays :func:`hidden_from` takes (the faces, the object's corners and points,
-        the near distance, each face's coplanar partner), for compiled callers."""
+        the near distance, each face's coplanar partner, each solid's faces), for compiled
+        callers."""
         f = self.faces
         return (f.triangles, f.normals, f.lo, f.hi, f.spheres, f.owner, f.behind, f.solid_verts,
                 f.solid_start, f.solid_lo, f.solid_hi, f.solid_spheres, f.planes, f.nplanes,
-                self.corners, self.points, float(self.near_m), f.partner)
+                self.corners, self.points, float(self.near_m), f.partner, f.face_start,
+                f.face_end)
 
     def hide(self, eye: np.ndarray) -> bool:
         """Whether the faces hide every point of the hull of the corners from ``eye`` (3,):
@@ -344,7 +346,7 @@ def hidden_from(x, y, z, kernel):
     eye at (x, y, z): no view from there shows any of it (compiled form of
     :meth:`Occluders.hide`)."""
     (tris, normals, lo, hi, spheres, owner, behind, sverts, sstart, slo, shi, ssph, planes,
-     nplanes, corners, points, near, _) = kernel
+     nplanes, corners, points, near, _, _, _) = kernel
     eye = np.array([x, y, z])
     w, p, q = _frame(eye, corners)
     return _leftover(tris, normals, lo, hi, spheres, owner, behind, sverts, sstart, slo, shi,
