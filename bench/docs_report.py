@@ -150,7 +150,9 @@ def results(src: dict[str, Source]) -> str | None:
                      "~8 h (the original)"])
     if table.present:
         names = _rows_of_table()
-        for key, s in table.data["results"].items():
+        order = {k: i for i, k in enumerate(names)}  # the tables' own order, Table 1 first
+        done = table.data["results"]
+        for key, s in sorted(done.items(), key=lambda kv: order.get(kv[0], len(order))):
             label, paper = names.get(key, (key, None))
             if key in ("kitchen_to_study", "study_to_kitchen"):
                 label = f"Table 2: {label}"
