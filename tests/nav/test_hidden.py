@@ -24,12 +24,6 @@ def _grid(occ, r=0.1):
     return OccupancyGrid(occ, r, cl)
 
 
-def _table(g, spec):
-    ok = np.zeros((g.shape[0] + 2, g.shape[1] + 2), bool)
-    ok[1:-1, 1:-1] = g.clearance >= spec.radius_m
-    return ok
-
-
 def _reached(start: Pose, g, spec, moves: int) -> set[tuple[int, int]]:
     """The cells of every position the simulator reaches from ``start`` within ``moves``
     forward moves (turns free), positions merged to 1e-9 m."""
@@ -74,7 +68,7 @@ def test_every_position_the_simulator_reaches_lies_in_a_bounding_cell():
         a = free[rng.integers(len(free))]
         start = Pose(float((a[0] + rng.uniform(0, 1)) * 0.1),
                      float((a[1] + rng.uniform(0, 1)) * 0.1), int(rng.integers(12)), 0)
-        ok = _table(g, spec)
+        ok = g.move_table(spec.radius_m)
         bound = {tuple(c) for c in reachable_cells(ok, 0.1, (start.x, start.y),
                                                    STEP_M / (STEP_SAMPLES - 1)).tolist()}
         assert _reached(start, g, spec, 14) <= bound, trial

@@ -97,30 +97,19 @@ def fewest_tilts(pose: Pose, at_least: int, spec: AgentSpec, visible: Callable[[
     return None, asked
 
 
-class _Proof:
-    """The proof that no reachable pose sees the object
-    (:func:`fallgen.nav.hidden.hidden_everywhere`), tried once, when a search has grown long
-    (:data:`PROOF_AFTER_STATES`, :data:`PROOF_AFTER_VERDICTS`): where it holds, the search
-    would go on until it had entered every state or hit its limits. Calling it raises
-    :class:`NoPath` if the proof holds."""
-
-    def __init__(self, start: Pose, grid: OccupancyGrid, target, spec: AgentSpec,
-                 sight: tuple | None) -> None:
-        self._args = (start, grid, target, spec)
-        self._sight, self._tried = sight, sight is None
-
-    def __call__(self) -> None:
-        if self._tried:
-            return
-        self._tried = True
-        start, grid, target, spec = self._args
-        cells = hidden_everywhere(_table(grid, spec), grid.resolution, (start.x, start.y),
-                                  np.asarray(target, float)[:2], SUCCESS_DISTANCE_M,
-                                  spec.camera_height_m, STEP_M / (STEP_SAMPLES - 1),
-                                  self._sight)
-        if cells is not None:
-            raise NoPath(f"the scene hides the object from every reachable cell within reach "
-                         f"({cells} cells)")
+def _prove_hidden(start: Pose, ok: np.ndarray, resolution: float, target_xy,
+                  spec: AgentSpec, sight: tuple) -> None:
+    """:class:`NoPath` where the proof that no reachable pose sees the object holds
+    (:func:`fallgen.nav.hidden.hidden_everywhere`; ``ok``: the simulator's move table). A
+    search tries it once it has grown long (:data:`PROOF_AFTER_STATES`,
+    :data:`PROOF_AFTER_VERDICTS`): where it holds, the search would go on until it had entered
+    every state or hit its limits."""
+    cells = hidden_everywhere(ok, resolution, (start.x, start.y), target_xy,
+                              SUCCESS_DISTANCE_M, spec.camera_height_m,
+                              STEP_M / (STEP_SAMPLES - 1), sight)
+    if cells is not None:
+        raise NoPath(f"the scene hides the object from every reachable cell within reach "
+                     f"({cells} cells)")
 
 
 @dataclass(frozen=True)
@@ -132,19 +121,11 @@ class Limits:
     states: int = MAX_STATES
 
 
-def _table(grid: OccupancyGrid, spec: AgentSpec) -> np.ndarray:
-    """The occupancy table of the simulator's check, with a border for "outside the grid"
-    (clearance 0 there, as grid.clearance_at has it)."""
-    ok = np.full((grid.shape[0] + 2, grid.shape[1] + 2), 0.0 >= spec.radius_m)
-    ok[1:-1, 1:-1] = grid.clearance >= spec.radius_m
-    return ok
-
-
 def _search(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray, spec: AgentSpec,
             move_cost: int, turn_cost: int, visible: Callable[[Pose], bool],
             limits: Limits, may_see: MaySee | None, unseen: Unseen | None,
-            sight: tuple | None, proof: _Proof | None) -> tuple[Plan, int]:
-    ok = _table(grid, spec)
+            sight: tuple | None, prove: bool) -> tuple[Plan, int]:
+    ok = grid.move_table(spec.radius_m)
     target_xy = np.asarray(target, float)[:2]
     tilt_cost = min(move_cost, turn_cost)
     lat = Lattice(ok=ok, resolution=grid.resolution, step_m=STEP_M,
@@ -158,13 +139,16 @@ def _search(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray, spec:
     lat.start(start.x, start.y, start.heading)
     confirmed: dict[int, int] = {}  # state -> its signed tilt steps, once rendered
     renders = 0
-    states = limits.states if proof is None else min(limits.states, PROOF_AFTER_STATES)
+    prove = prove and sight is not None  # tried at most once, when the search grows long
+    states = min(limits.states, PROOF_AFTER_STATES) if prove else limits.states
     while True:
         try:
             cand = lat.next_candidate(states)
         except LatticeFull as e:
-            if states < limits.states:
-                proof()  # NoPath if it holds
+            if states < limits.states:  # grown long: the proof (unless tried), then the rest
+                if prove:
+                    prove = False
+                    _prove_hidden(start, ok, grid.resolution, target_xy, spec, sight)
                 states = limits.states
                 continue
             raise SearchLimit(f"gave up after {renders} verdicts: {e}") from None
@@ -177,8 +161,9 @@ def _search(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray, spec:
         if t is None:
             if horizontal_distance_m(pose, target_xy) > SUCCESS_DISTANCE_M:
                 continue  # within the search's rounding slack, outside the judge's reach
-            if proof is not None and renders >= PROOF_AFTER_VERDICTS:
-                proof()  # NoPath if it holds
+            if prove and renders >= PROOF_AFTER_VERDICTS:
+                prove = False
+                _prove_hidden(start, ok, grid.resolution, target_xy, spec, sight)
             if renders >= limits.verdicts:
                 raise SearchLimit(f"gave up after {renders} views rendered, {lat.states} "
                                   "poses searched")
@@ -221,7 +206,7 @@ def expert(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray,
     plan = plan_to_see(start, grid, target, corners, visible, spec, limits, may_see, unseen,
                        sight)
     fewest, total = _search(start, grid, target, corners, spec, 1, 1, visible, limits,
-                            may_see, unseen, sight, None)
+                            may_see, unseen, sight, False)
     if total != len(fewest.actions) or total > len(plan.actions):
         raise AssertionError(f"fewest-actions search: {total} actions, plan "
                              f"{len(fewest.actions)}, expert {len(plan.actions)}")
@@ -235,7 +220,7 @@ def plan_to_see(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray,
     """The expert's own plan from ``start`` (fewest forward moves, then fewest turns and
     tilts; the first search of :func:`expert`), without the fewest-actions search."""
     plan, _ = _search(start, grid, target, corners, spec, 1000, 1, visible, limits, may_see,
-                      unseen, sight, _Proof(start, grid, target, spec, sight))
+                      unseen, sight, True)
     if len(plan.actions) > MAX_ACTIONS:
         raise NoPath(f"the shortest plan takes {len(plan.actions)} actions, more than "
                      f"{MAX_ACTIONS}")

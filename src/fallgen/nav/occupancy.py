@@ -37,6 +37,14 @@ class OccupancyGrid:
         i = np.clip(np.floor(p).astype(int), 0, np.array(self.shape) - 1)
         return int(i[..., 0]), int(i[..., 1])
 
+    def move_table(self, radius_m: float) -> np.ndarray:
+        """Whether a disk of ``radius_m`` fits at each cell, as the simulator's forward-move
+        check reads it, with a border for "outside the grid" (clearance 0 there, as
+        :meth:`clearance_at` has it): index (i + 1, j + 1) is cell (i, j)."""
+        ok = np.full((self.shape[0] + 2, self.shape[1] + 2), 0.0 >= radius_m)
+        ok[1:-1, 1:-1] = self.clearance >= radius_m
+        return ok
+
     def clearance_at(self, xy: np.ndarray) -> np.ndarray:
         """(N,) clearance at points (N, 2); points outside the grid have 0."""
         p = np.atleast_2d(np.asarray(xy, float))[:, :2] / self.resolution

@@ -50,6 +50,27 @@ def clip(xs, ys, n, a, b, c, ox, oy):
 
 
 @njit(cache=True)
+def extents_polygon(xs, ys, n, sides, margin, hx, hy):
+    """The polygon of the ``n`` points' extents along ``sides`` directions, each both ways,
+    every side pushed out by ``margin`` (it holds their hull), into ``hx``, ``hy`` (at least
+    :data:`MAX_VERTICES`); returns its vertex count."""
+    tx, ty = np.empty(MAX_VERTICES), np.empty(MAX_VERTICES)
+    big = 1e3
+    hx[:4] = np.array([-big, big, big, -big])
+    hy[:4] = np.array([-big, -big, big, big])
+    hn = 4
+    for k in range(2 * sides):
+        ang = np.pi * k / sides
+        c, s = np.cos(ang), np.sin(ang)
+        reach = -np.inf
+        for j in range(n):
+            reach = max(reach, c * xs[j] + s * ys[j])
+        hn = clip(hx, hy, hn, -c, -s, reach + margin, tx, ty)  # keep c x + s y <= reach
+        hx[:hn], hy[:hn] = tx[:hn], ty[:hn]
+    return hn
+
+
+@njit(cache=True)
 def convex_hull(px, py, n, ox, oy):
     """The convex hull (counter-clockwise, Andrew's monotone chain) of ``n`` points into
     ``ox``, ``oy``; returns its vertex count."""

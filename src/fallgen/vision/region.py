@@ -35,8 +35,9 @@ import math
 import numpy as np
 from numba import njit
 
-from fallgen.vision.cover import MAX_VERTICES, area2, clip, convex_hull, subtract
-from fallgen.vision.sight import BUDGET, DUST, MARGIN, MAX_PIECES
+from fallgen.vision.cover import (MAX_VERTICES, area2, clip, convex_hull, extents_polygon,
+                                  subtract)
+from fallgen.vision.sight import BUDGET, DUST, MARGIN, MAX_PIECES, SIDES, gnomonic_frame
 
 #: An occluder's image from one corner keeps at most this many vertices (every other vertex
 #: dropped until it fits: a polygon inside the image), so that four of them intersect within
@@ -44,8 +45,6 @@ from fallgen.vision.sight import BUDGET, DUST, MARGIN, MAX_PIECES
 _CORNER_VERTICES = 15
 #: A convex solid cut to the slab between the eyes and Pi keeps at most this many points.
 _CUT_POINTS = 2048
-#: The object's image is bounded by its extents along this many directions (each both ways).
-_SIDES = 16
 
 
 @njit(cache=True)
@@ -66,32 +65,28 @@ def _project(pts, n, eye, lvl, c0, w, p, q, d0, ox, oy):
 
 
 @njit(cache=True)
+def _keep(src, n, w, level, sign, dst):
+    """The planar polygon ``src[:n]`` (3D) cut to sign (w . x - level) >= 0, into ``dst``;
+    returns its vertex count."""
+    m = 0
+    for i in range(n):
+        j = (i + 1) % n
+        si = sign * (src[i, 0] * w[0] + src[i, 1] * w[1] + src[i, 2] * w[2] - level)
+        sj = sign * (src[j, 0] * w[0] + src[j, 1] * w[1] + src[j, 2] * w[2] - level)
+        if si >= 0.0:
+            dst[m] = src[i]
+            m += 1
+        if (si >= 0.0) != (sj >= 0.0):
+            dst[m] = src[i] + (si / (si - sj)) * (src[j] - src[i])
+            m += 1
+    return m
+
+
+@njit(cache=True)
 def _cut(src, n, w, lo, hi, dst, tmp):
     """The planar polygon ``src[:n]`` (3D) cut to the slab lo <= w . x <= hi, into ``dst``;
     returns its vertex count."""
-    m = 0
-    for i in range(n):  # w . x >= lo
-        j = (i + 1) % n
-        si = src[i, 0] * w[0] + src[i, 1] * w[1] + src[i, 2] * w[2] - lo
-        sj = src[j, 0] * w[0] + src[j, 1] * w[1] + src[j, 2] * w[2] - lo
-        if si >= 0.0:
-            tmp[m] = src[i]
-            m += 1
-        if (si >= 0.0) != (sj >= 0.0):
-            tmp[m] = src[i] + (si / (si - sj)) * (src[j] - src[i])
-            m += 1
-    k = 0
-    for i in range(m):  # w . x <= hi
-        j = (i + 1) % m
-        si = hi - (tmp[i, 0] * w[0] + tmp[i, 1] * w[1] + tmp[i, 2] * w[2])
-        sj = hi - (tmp[j, 0] * w[0] + tmp[j, 1] * w[1] + tmp[j, 2] * w[2])
-        if si >= 0.0:
-            dst[k] = tmp[i]
-            k += 1
-        if (si >= 0.0) != (sj >= 0.0):
-            dst[k] = tmp[i] + (si / (si - sj)) * (tmp[j] - tmp[i])
-            k += 1
-    return k
+    return _keep(tmp, _keep(src, n, w, lo, 1.0, tmp), w, hi, -1.0, dst)
 
 
 @njit(cache=True)
@@ -231,14 +226,7 @@ def hidden_from_cell(x0, y0, x1, y1, z, kernel):
      nplanes, corners, points, near, partner, fstart, fend) = kernel
     eyes = np.array([[x0, y0, z], [x1, y0, z], [x1, y1, z], [x0, y1, z]])
     c0 = np.array([0.5 * (x0 + x1), 0.5 * (y0 + y1), z])
-    w = np.empty(3)
-    for a in range(3):
-        w[a] = corners[:, a].mean() - c0[a]
-    w /= np.sqrt((w * w).sum())
-    up = np.array([0.0, 0.0, 1.0]) if abs(w[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
-    p = np.cross(up, w)
-    p /= np.sqrt((p * p).sum())
-    q = np.cross(w, p)
+    w, p, q = gnomonic_frame(c0, corners)
     emax = -np.inf
     for k in range(4):
         emax = max(emax, (eyes[k] * w).sum())
@@ -270,20 +258,7 @@ def hidden_from_cell(x0, y0, x1, y1, z, kernel):
         if not _project(grown, ng, eyes[k], lvl, c0, w, p, q, d0, ix[k * ng:], iy[k * ng:]):
             return False
     hx, hy = np.empty(MAX_VERTICES), np.empty(MAX_VERTICES)
-    tx, ty = np.empty(MAX_VERTICES), np.empty(MAX_VERTICES)
-    big = 1e3
-    hx[:4] = np.array([-big, big, big, -big])
-    hy[:4] = np.array([-big, -big, big, big])
-    hn = 4
-    for k in range(2 * _SIDES):
-        ang = np.pi * k / _SIDES
-        c, s_ = np.cos(ang), np.sin(ang)
-        reach = -np.inf
-        for j in range(4 * ng):
-            reach = max(reach, c * ix[j] + s_ * iy[j])
-        reach += 1e-9
-        hn = clip(hx, hy, hn, -c, -s_, reach, tx, ty)  # keep c x + s y <= reach
-        hx[:hn], hy[:hn] = tx[:hn], ty[:hn]
+    hn = extents_polygon(ix, iy, 4 * ng, SIDES, 1e-9, hx, hy)
     box = np.array([hx[:hn].min(), hy[:hn].min(), hx[:hn].max(), hy[:hn].max()])
     # the box holding the square and the object: occluders outside it cannot matter
     blo, bhi = np.empty(3), np.empty(3)

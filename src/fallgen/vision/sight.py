@@ -36,7 +36,8 @@ import mujoco
 import numpy as np
 from numba import njit
 
-from fallgen.vision.cover import MAX_VERTICES, area2, clip, convex_hull, subtract
+from fallgen.vision.cover import (MAX_VERTICES, area2, convex_hull, extents_polygon,
+                                  subtract)
 from fallgen.vision.faces import DRAWN_GROUPS, FaceSet, SceneFaces
 
 #: How far (m) the object must lie behind an occluding face's plane: far beyond the depth
@@ -56,7 +57,7 @@ BUDGET = 20_000
 #: is about 4e-5.
 DUST = 1e-14
 #: The object's image is bounded by its extents along this many directions (each both ways).
-_SIDES = 16
+SIDES = 16
 @njit(cache=True)
 def _project_solids(sverts, sstart, slo, shi, ssph, planes, nplanes, eye, w, p, q, box, near,
                     ox, oy, sizes, used):
@@ -198,7 +199,7 @@ class Occluders:
         """What of the object can show from ``eye`` (3,)."""
         eye = np.asarray(eye, float)
         f = self.faces
-        frame = _frame(eye, self.corners)
+        frame = gnomonic_frame(eye, self.corners)
         xs, ys, ns, count = _leftover(
             f.triangles, f.normals, f.lo, f.hi, f.spheres, f.owner, f.behind, f.solid_verts,
             f.solid_start, f.solid_lo, f.solid_hi, f.solid_spheres, f.planes, f.nplanes, eye,
@@ -275,7 +276,7 @@ def near_distance(model: mujoco.MjModel) -> float:
 
 
 @njit(cache=True)
-def _frame(eye, corners):
+def gnomonic_frame(eye, corners):
     """The gnomonic frame about the direction from ``eye`` to the corners' mean: (w, p, q)."""
     w = np.empty(3)
     for a in range(3):
@@ -307,20 +308,7 @@ def _leftover(tris, normals, lo, hi, spheres, owner, behind, sverts, sstart, slo
         ix[j] = (rx * p[0] + ry * p[1] + rz * p[2]) / z
         iy[j] = (rx * q[0] + ry * q[1] + rz * q[2]) / z
     hx, hy = np.empty(MAX_VERTICES), np.empty(MAX_VERTICES)
-    tx, ty = np.empty(MAX_VERTICES), np.empty(MAX_VERTICES)
-    big = 1e3
-    hx[:4] = np.array([-big, big, big, -big])
-    hy[:4] = np.array([-big, -big, big, big])
-    hn = 4
-    for k in range(2 * _SIDES):
-        a = np.pi * k / _SIDES
-        c, s_ = np.cos(a), np.sin(a)
-        reach = -np.inf
-        for j in range(n):
-            reach = max(reach, c * ix[j] + s_ * iy[j])
-        reach += MARGIN
-        hn = clip(hx, hy, hn, -c, -s_, reach, tx, ty)  # keep c x + s y <= reach
-        hx[:hn], hy[:hn] = tx[:hn], ty[:hn]
+    hn = extents_polygon(ix, iy, n, SIDES, MARGIN, hx, hy)
     box = np.array([hx[:hn].min(), hy[:hn].min(), hx[:hn].max(), hy[:hn].max()])
     nsol = len(nplanes)
     ox = np.empty((nsol + len(tris), MAX_VERTICES))
@@ -348,7 +336,7 @@ def hidden_from(x, y, z, kernel):
     (tris, normals, lo, hi, spheres, owner, behind, sverts, sstart, slo, shi, ssph, planes,
      nplanes, corners, points, near, _, _, _) = kernel
     eye = np.array([x, y, z])
-    w, p, q = _frame(eye, corners)
+    w, p, q = gnomonic_frame(eye, corners)
     return _leftover(tris, normals, lo, hi, spheres, owner, behind, sverts, sstart, slo, shi,
                      ssph, planes, nplanes, eye, corners, points, near, w, p, q)[3] == 0
 
@@ -404,4 +392,4 @@ def _count_pixels(xs, ys, ns, w, p, q, yaw, tilt, size, scale, slack, enough):
 
 
 __all__ = ["DRAWN_GROUPS", "Occluders", "Sight", "BEHIND_M", "hidden_from", "near_distance",
-           "MARGIN", "SLACK_PX"]
+           "MARGIN", "SIDES", "SLACK_PX", "gnomonic_frame"]
