@@ -78,7 +78,7 @@ def in_rollout(dataset: Path, envs: int, steps: int, n_steps: int) -> dict:
     from stable_baselines3.common.callbacks import BaseCallback
 
     from fallgen.policies import ppo
-    from fallgen.policies.runtime import isolated_rng, session
+    from fallgen.learn.runtime import isolated_rng, session
     from fallgen.policies.vec import Sb3VecEnv, training_envs
 
     class Timer(BaseCallback):

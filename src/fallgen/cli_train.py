@@ -89,7 +89,7 @@ def register(app: typer.Typer, console) -> None:
         if room_kind is not None:
             given["room_kind"] = room_kind
         try:
-            from fallgen.policies.runtime import resolve_device
+            from fallgen.learn.runtime import resolve_device
 
             resolve_device(device)
             mod = _module(kind)

@@ -1,11 +1,15 @@
-"""Where and how a learned module runs: the device, determinism, threads, seeded weights.
+"""Where and how a learned module or policy runs: the device, determinism, threads, seeded
+weights, random numbers kept apart.
 
 A training or inference job runs inside :func:`session`, which sets torch's thread count and
-``torch.use_deterministic_algorithms`` for its duration and restores both afterwards. Random
-numbers come from generators made from the job's seed (``torch.Generator`` for weights,
+``torch.use_deterministic_algorithms`` for its duration and restores both afterwards. Our own
+random numbers come from generators made from the job's seed (``torch.Generator`` for weights,
 ``numpy.random.Generator`` from a ``SeedSequence`` for data order and crops), never from torch's
 or numpy's global state, so a job on the CPU with the same seed and thread count repeats
-bit for bit.
+bit for bit. Stable-Baselines3 and torch's module initialisers draw from the global
+generators; :func:`isolated_rng` seeds those for the duration of a job and puts back what they
+were afterwards, and a policy's checkpoint stores their state (:func:`rng_state`) so that a
+resumed run restores it.
 """
 
 from __future__ import annotations
@@ -13,8 +17,12 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import math
+import random
 import sys
 from collections.abc import Iterator
+from typing import Any
+
+import numpy as np
 
 from fallgen.learn import require_torch
 
@@ -97,5 +105,49 @@ def init_weights(net, seed: int) -> None:
                 m.bias.zero_()
 
 
+def rng_state() -> dict[str, Any]:
+    """The global generators' states (python, numpy, torch, CUDA where it runs), as plain
+    values and tensors (``torch.load`` with ``weights_only=True`` reads them back)."""
+    torch = require_torch()
+    kind, keys, pos, has_gauss, gauss = np.random.get_state()
+    state = {"torch": torch.get_rng_state(),
+             "numpy": {"keys": torch.from_numpy(keys.astype(np.int64)), "pos": int(pos),
+                       "has_gauss": int(has_gauss), "gauss": float(gauss)},
+             "python": [list(random.getstate()[1]), random.getstate()[0]]}
+    if torch.cuda.is_available() and torch.cuda.is_initialized():
+        state["cuda"] = torch.cuda.get_rng_state_all()
+    return state
+
+
+def set_rng_state(state: dict[str, Any]) -> None:
+    """Put back what :func:`rng_state` returned."""
+    torch = require_torch()
+    torch.set_rng_state(state["torch"])
+    n = state["numpy"]
+    np.random.set_state(("MT19937", n["keys"].numpy().astype(np.uint32), n["pos"],
+                         n["has_gauss"], n["gauss"]))
+    internal, version = state["python"]
+    random.setstate((version, tuple(internal), None))
+    if "cuda" in state and torch.cuda.is_available():
+        torch.cuda.set_rng_state_all(state["cuda"])
+
+
+@contextlib.contextmanager
+def isolated_rng(seed: int | None) -> Iterator[None]:
+    """The global generators (python, numpy, torch) seeded from ``seed`` while the block runs
+    (None: left as they are), and as they were before it afterwards."""
+    saved = rng_state()
+    try:
+        if seed is not None:
+            ss = np.random.SeedSequence(int(seed))
+            a, b, c = (int(x) for x in ss.generate_state(3))
+            random.seed(a)
+            np.random.seed(b)
+            require_torch().manual_seed(c)
+        yield
+    finally:
+        set_rng_state(saved)
+
+
 __all__ = ["DEVICES", "default_device", "resolve_device", "keep_heap", "session",
-           "init_weights"]
+           "init_weights", "rng_state", "set_rng_state", "isolated_rng"]

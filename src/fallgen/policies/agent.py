@@ -18,7 +18,7 @@ def load_run(run: str | Path, checkpoint: str | Path | None = None,
              deterministic: bool = False, device: str = "cpu") -> Any:
     """The agent of run directory ``run`` (its last checkpoint) or of ``checkpoint``."""
     from fallgen.policies.runs import find_checkpoint, load_checkpoint
-    from fallgen.policies.runtime import resolve_device
+    from fallgen.learn.runtime import resolve_device
 
     dev = resolve_device(device)
     path = Path(checkpoint) if checkpoint is not None else find_checkpoint(run)

@@ -43,7 +43,7 @@ from fallgen.policies import SENSORS
 from fallgen.policies.encoder import FEATURES_DIM, ObservationEncoder, compactor, to_tensors
 from fallgen.policies.runs import CsvLog, Run, apply_overrides, curve_png, load_checkpoint, \
     read_log
-from fallgen.policies.runtime import isolated_rng, resolve_device, rng_state, session, \
+from fallgen.learn.runtime import isolated_rng, resolve_device, rng_state, session, \
     set_rng_state
 
 DEFAULT_STEPS = 3000

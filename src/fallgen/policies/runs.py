@@ -7,7 +7,7 @@
 
 A checkpoint is one ``torch.save`` file of tensors and plain values (read back with
 ``weights_only=True``): ``format``, ``kind``, ``manifest_sha256``, ``dataset``, ``config``,
-``update``, ``state`` (the policy's), ``rng`` (:func:`fallgen.policies.runtime.rng_state`).
+``update``, ``state`` (the policy's), ``rng`` (:func:`fallgen.learn.runtime.rng_state`).
 A run is resumed from its last checkpoint; a checkpoint made on another dataset (another
 manifest hash), of another kind or with other settings is refused with one line
 (:class:`fallgen.errors.InputError`).

@@ -184,7 +184,7 @@ def train(dataset: str | Path, run, cfg: Mapping[str, Any], digest: str, *, seed
           threads: int = 1) -> dict[str, Any]:
     """Train (or go on training) SAVi on ``dataset`` (module docstring)."""
     from fallgen.dataset.reader import Dataset
-    from fallgen.policies.runtime import isolated_rng, resolve_device, session
+    from fallgen.learn.runtime import isolated_rng, resolve_device, session
 
     cfg = dict(cfg)
     cfg["n_categories"] = len(Dataset(dataset).category_labels)

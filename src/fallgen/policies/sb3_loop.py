@@ -28,7 +28,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.logger import Logger
 
 from fallgen.policies.runs import CsvLog, Run, curve_png, load_checkpoint, read_log
-from fallgen.policies.runtime import isolated_rng, rng_state, session, set_rng_state
+from fallgen.learn.runtime import isolated_rng, rng_state, session, set_rng_state
 
 #: Episodes the logged measures are averaged over.
 WINDOW = 100
@@ -171,7 +171,7 @@ def train_on_env(kind: str, dataset: str | Path, run: Run, cfg: Mapping[str, Any
                  wrap_venv: Callable[[Any], Any] | None = None) -> dict[str, Any]:
     """Train (or go on training) the run's model on ``dataset`` (module docstring); what the
     run reached: updates, timesteps, wall seconds, the last checkpoint."""
-    from fallgen.policies.runtime import resolve_device
+    from fallgen.learn.runtime import resolve_device
     from fallgen.policies.vec import Sb3VecEnv, training_envs
 
     dev = resolve_device(device)
