@@ -176,13 +176,14 @@ def test_fallgen_and_its_command_line_import_without_torch():
 #: "issue" followed by a number, or "the issue" / "issue's".
 TRACKER = re.compile(r"\bissue(?:[ s]*#?[0-9]|'s)|\bthe issue\b", re.I)
 #: Where behaviour is described; CHANGELOG.md is history and may cite where a change came from.
-WHERE = ("src", "tests", "bench", "docs", "README.md", "Makefile")
+WHERE = ("src", "tests", "bench", "docs", "materials", "configs", "scripts", "README.md",
+         "Makefile")
 def tracker_mentions() -> dict[str, list[str]]:
     out: dict[str, list[str]] = {}
     for where in WHERE:
         root = REPO / where
         files = [root] if root.is_file() else sorted(
-            p for p in root.rglob("*") if p.is_file() and p.suffix in (".py", ".md", ".toml"))
+            p for p in root.rglob("*") if p.is_file() and p.suffix in (".py", ".md", ".toml", ".sh"))
         for p in files:
             if p == Path(__file__).resolve():  # the patterns and reasons below
                 continue
