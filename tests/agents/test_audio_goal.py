@@ -180,6 +180,17 @@ def test_table_on_the_tiny_build(tiny_dataset, tmp_path, cli):
         assert (t != before[p]) == ("audio" in agent and "vision" not in agent), p
     no_vision = json.loads((out / "table.json").read_text())
     assert not {"objectgoal", "modular_av", "modular_av_obj"} & set(no_vision["results"])
+    # a row made by other agent code (its summary's code digest differs) is run again
+    stale = out / "rows" / "random" / "summary.json"
+    summary = json.loads(stale.read_text())
+    assert summary["code_digest"]
+    stale.write_text(json.dumps(dict(summary, code_digest="made-by-other-code")))
+    before = {p: p.stat().st_mtime_ns for p in (out / "rows").rglob("summary.json")}
+    assert cli("table", str(tiny_dataset), "-o", str(out), "--trees", "11", "--workers",
+               "1", "--no-vision") == 0
+    after = {p: p.stat().st_mtime_ns for p in (out / "rows").rglob("summary.json")}
+    assert {p for p in after if after[p] != before[p]} == {stale}
+    assert json.loads(stale.read_text())["code_digest"] == summary["code_digest"]
     # the subsample: seeded, sorted, a subset; everything when asked for as many or more
     ids = list(range(100, 160))
     a = subsample(ids, 10, 0, 1)

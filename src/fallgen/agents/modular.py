@@ -32,7 +32,8 @@ import numpy as np
 from scipy.ndimage import label
 
 from fallgen.agents.base import ORACLES
-from fallgen.agents.mapping import FIT_SLACK_M, SIZE, AgentPose, EgoMap, back_project, project
+from fallgen.agents.mapping import CELL_M, FIT_SLACK_M, SIZE, AgentPose, EgoMap, back_project, \
+    project
 from fallgen.nav.agent import DOWN, FORWARD, FOUND, HEADING_VECTORS, HEADINGS, LEFT, \
     MAX_ACTIONS, RIGHT, STEP_M, SUCCESS_DISTANCE_M, TURN_DEG, UP, VISIBLE_PIXELS, AgentSpec
 from fallgen.vision.camera import HEIGHT, WIDTH
@@ -378,7 +379,9 @@ class ModularAgent:
             return None
         pts = [pose.xy] + ([self.goal[:2]] if self.goal is not None else [])
         win = self.map.window(*pts)
-        for slack in SLACKS_M:
+        # last, any cell the map holds no obstacle in: a way the map draws shut may still be
+        # open, and a move the simulator refuses is remembered (EgoMap.block)
+        for slack in SLACKS_M + (self.spec.radius_m - CELL_M / 4,):
             field = self.map.field(win, src, cost, slack)
             best, best_v = None, math.inf
             for k in range(HEADINGS):

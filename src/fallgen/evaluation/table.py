@@ -53,6 +53,11 @@ AUDIO_MODELS = (("all", None), ("kitchen", "kitchen"), ("study", "study"))
 _PAPER1 = {name.strip(): (sr, spl, sna) for name, sr, spl, sna in PAPER_TABLE1}
 
 
+#: the packages whose code decides a row's episodes (the agents, what they see and how they
+#: are scored): a row made by other code is run again, not kept
+AGENT_CODE = ("agents", "env", "evaluation", "nav", "perception", "learn", "vision", "world")
+
+
 @dataclass(frozen=True)
 class Row:
     """One line of a table: ``key`` names its directory under ``OUT/rows``; ``model`` the audio
@@ -156,6 +161,7 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
     ``--epochs``), on ``device``; ``vision_model``: a model file of this dataset to use
     instead of training one. ``progress(step, done, total)``."""
     from fallgen.atomic import write_text
+    from fallgen.dataset.integrity import code_digest
     from fallgen.dataset.manifest import sha256 as file_sha256
     from fallgen.dataset.reader import Dataset
     from fallgen.evaluation.evaluate import evaluate, write
@@ -279,7 +285,9 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
         ref = AgentRef("baseline", row.name, oracles=row.oracles, kwargs=kwargs)
         row_dir = out / ROWS / row.key
         old = _read_json(row_dir / "summary.json")
+        code = "+".join(code_digest(g) for g in AGENT_CODE)
         if old is not None and old.get("manifest_sha256") == sha and \
+                old.get("code_digest") == code and \
                 old.get("agent") == ref.describe() and old.get("seed") == seed and \
                 old.get("episode_ids") == ids and old.get("audio_model_sha256") == model_sha \
                 and old.get("vision_model_sha256") == vision_sha:
@@ -291,7 +299,7 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
         ev = evaluate(ds.root, ref, split=None, episode_ids=ids, workers=workers, seed=seed,
                       data_dir=data_dir, progress=_step(progress, row.key, len(ids)))
         wall = time.perf_counter() - t0
-        ev.summary.update({"episode_ids": ids, "wall_s": round(wall, 1),
+        ev.summary.update({"episode_ids": ids, "wall_s": round(wall, 1), "code_digest": code,
                            "audio_model_sha256": model_sha, "vision_model_sha256": vision_sha})
         write(ev, row_dir)
         run.results[row.key] = ev.summary
