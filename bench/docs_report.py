@@ -342,7 +342,9 @@ AUDIO_SCORES = (("category, top-1", "category_top1", "{:.3f}"),
                 ("lateral angle (front and back folded), median error",
                  "lateral_median_error_deg", "{:.1f} deg"),
                 ("position, median error", "position_median_error_m", "{:.2f} m"),
-                ("distance, rank correlation", "distance_rank_correlation", "{:.3f}"))
+                ("distance, rank correlation", "distance_rank_correlation", "{:.3f}"),
+                ("distance, rank correlation within a room (mean over room variants)",
+                 "distance_rank_correlation_within_room", "{:.3f}"))
 
 
 def audio_module(src) -> str | None:

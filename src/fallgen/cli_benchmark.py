@@ -499,7 +499,8 @@ def register(app: typer.Typer, console: Console) -> None:
         for key, fmt in (("category_top1", "{:.3f}"), ("category_top5", "{:.3f}"),
                          ("material_top1", "{:.3f}"), ("azimuth_median_error_deg", "{:.1f}"),
                          ("lateral_median_error_deg", "{:.1f}"),
-                         ("distance_rank_correlation", "{:.3f}")):
+                         ("distance_rank_correlation", "{:.3f}"),
+                         ("distance_rank_correlation_within_room", "{:.3f}")):
             cells = [scores.get(key), scores["prior"].get(key), scores["chance"].get(key)]
             table.add_row(key, *("" if v is None else fmt.format(v) for v in cells))
         console.print(table)

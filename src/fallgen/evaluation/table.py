@@ -399,8 +399,8 @@ def markdown(run: TableRun) -> str:
                                 ).rstrip("\n"))
     lines += ["", "## The audio module on the test episodes", "",
               "| model on episodes | category top-1 / top-5 | material | azimuth err (deg) | "
-              "lateral err (deg) | distance rank corr. | position err (m) | "
-              "prior: top-1 / top-5, material, azimuth, lateral, rank corr. |",
+              "lateral err (deg) | distance rank corr. (within a room) | position err (m) | "
+              "prior: top-1 / top-5, material, azimuth, lateral, rank corr. (within a room) |",
               "|---|---|---|---|---|---|---|---|"]
     for key, a in run.audio.items():
         p = a["prior"]
@@ -408,10 +408,13 @@ def markdown(run: TableRun) -> str:
             f"| {key.replace('_on_', ' on ')} ({a['episodes']}) | {a['category_top1']:.3f} / "
             f"{a['category_top5']:.3f} | {a['material_top1']:.3f} | "
             f"{a['azimuth_median_error_deg']:.1f} | {a['lateral_median_error_deg']:.1f} | "
-            f"{a['distance_rank_correlation']:.3f} | {a['position_median_error_m']:.2f} | "
+            f"{a['distance_rank_correlation']:.3f} "
+            f"({a.get('distance_rank_correlation_within_room', float('nan')):.3f}) | "
+            f"{a['position_median_error_m']:.2f} | "
             f"{p['category_top1']:.3f} / {p['category_top5']:.3f}, {p['material_top1']:.3f}, "
             f"{p['azimuth_median_error_deg']:.1f}, {p['lateral_median_error_deg']:.1f}, "
-            f"{p['distance_rank_correlation']:.3f} |")
+            f"{p['distance_rank_correlation']:.3f} "
+            f"({p.get('distance_rank_correlation_within_room', float('nan')):.3f}) |")
     lines += ["", "Prior: what a planner knows without listening (the train split's most "
               "frequent categories and material; the room's centre as where the fall was).", "",
               "## Time", "", "| step | time |", "|---|---|"]
