@@ -200,7 +200,7 @@ def _reach(cost, x1, y1, parent, action, lat, g, px, py, par, act, nact, closed,
         counts[C_STATES] = s + 1
         hkeys[j], hval[j] = key, s
         counts[C_USED] += 1
-        g[s] = np.iinfo(np.int64).max
+        g[s] = np.iinfo(np.int32).max
         closed[s] = False
     else:
         s = hval[j]
@@ -232,7 +232,7 @@ def _run(g, px, py, par, act, nact, closed, coords, hkeys, hval, oheap, fheap, c
                 return FINAL
         if n_open == 0:
             return EXHAUSTED
-        if counts[C_STATES] + 3 > len(g) or 2 * (counts[C_USED] + 4) > len(hkeys) \
+        if counts[C_STATES] + 3 > len(g) or 10 * (counts[C_USED] + 4) > 7 * len(hkeys) \
                 or n_open + 3 > len(oheap) or counts[C_FOUND] + 1 > len(fheap):
             return GROW
         key, n_open = _pop(oheap, n_open)
@@ -291,6 +291,15 @@ def _run(g, px, py, par, act, nact, closed, coords, hkeys, hval, oheap, fheap, c
                 coords[n0, :] = lat
 
 
+def _doubled(a: np.ndarray, used: int) -> np.ndarray:
+    """``a`` with twice the rows, its first ``used`` rows copied and the rest left
+    unwritten (``np.resize`` would fill them, making every page of the new array resident at
+    once beside the old one)."""
+    out = np.empty((2 * len(a), *a.shape[1:]), a.dtype)
+    out[:used] = a[:used]
+    return out
+
+
 class LatticeFull(RuntimeError):
     """The search needs more states than it is allowed."""
 
@@ -342,15 +351,19 @@ class Lattice:
         self._corners = np.ascontiguousarray(corners, float).reshape(-1, 3)
         self._counts = np.zeros(4, np.int64)
         n = int(capacity)
-        self.g = np.empty(n, np.int64)
+        # per state: its cost (int32: at most MAX_ACTIONS actions of small integer costs) and
+        # lattice coordinates (int16: at most MAX_ACTIONS steps from the start), 120 bytes
+        # with the tables below (154 with 64-bit ones: 2 million states are ~250 MB)
+        self.g = np.empty(n, np.int32)
         self.px, self.py = np.empty(n), np.empty(n)
         self.parent = np.empty(n, np.int32)
         self.act = np.empty(n, np.int8)
         self._nact = np.empty(n, np.int32)
         self._closed = np.empty(n, np.bool_)
-        self.coords = np.empty((n, 5), np.int64)
-        self._hkeys = np.full(4 * n, -1, np.int64)
-        self._hval = np.empty(4 * n, np.int32)
+        self.coords = np.empty((n, 5), np.int16)
+        # the hash table (open addressing, linear probing) at most 70 % full
+        self._hkeys = np.full(2 * n, -1, np.int64)
+        self._hval = np.empty(2 * n, np.int32)
         self._open = np.empty(3 * n + 1, np.int64)
         self._found = np.empty(n, np.int64)
 
@@ -375,16 +388,14 @@ class Lattice:
     def _grow(self) -> None:
         n = len(self.g)
         if self._counts[C_STATES] + 3 > n:
-            m = 2 * n
-            for name in ("g", "px", "py", "parent", "act", "_nact", "_closed"):
-                setattr(self, name, np.resize(getattr(self, name), m))
-            self.coords = np.resize(self.coords, (m, 5))
-        if 2 * (self._counts[C_USED] + 4) > len(self._hkeys):
+            for name in ("g", "px", "py", "parent", "act", "_nact", "_closed", "coords"):
+                setattr(self, name, _doubled(getattr(self, name), n))
+        if 10 * (self._counts[C_USED] + 4) > 7 * len(self._hkeys):
             self._hkeys, self._hval = rehash(self._hkeys, self._hval, 2 * len(self._hkeys))
         if self._counts[C_OPEN] + 3 > len(self._open):
-            self._open = np.resize(self._open, 2 * len(self._open))
+            self._open = _doubled(self._open, int(self._counts[C_OPEN]))
         if self._counts[C_FOUND] + 1 > len(self._found):
-            self._found = np.resize(self._found, 2 * len(self._found))
+            self._found = _doubled(self._found, int(self._counts[C_FOUND]))
 
     def next_candidate(self, max_states: int) -> tuple[int, int, int] | None:
         """The cheapest final candidate, taken out: (lower bound of its total, state, tilt
@@ -409,14 +420,14 @@ class Lattice:
     def offer(self, total: int, state: int, tilt_steps: int) -> None:
         """Enter a candidate again, with a higher total (its exact tilt cost)."""
         if self._counts[C_FOUND] + 1 > len(self._found):
-            self._found = np.resize(self._found, 2 * len(self._found))
+            self._found = _doubled(self._found, int(self._counts[C_FOUND]))
         self._counts[C_FOUND] = _push(self._found, int(self._counts[C_FOUND]),
                                       total * _C_TOTAL + state * _T_SPAN + tilt_steps + _T_OFF)
 
     def mark_unseen(self, state: int) -> None:
         """The object cannot be seen from ``state``'s position (any heading, any tilt): the
         position's other states are no candidates."""
-        if 2 * (self._counts[C_USED] + 1) > len(self._hkeys):
+        if 10 * (self._counts[C_USED] + 1) > 7 * len(self._hkeys):
             self._hkeys, self._hval = rehash(self._hkeys, self._hval, 2 * len(self._hkeys))
         a, b, c, d = self.coords[state, :4].tolist()
         key = int(position_key(a, b, c, d, int(self._ip[I_HEADINGS])))
