@@ -443,12 +443,42 @@ def benches(src) -> str | None:
     return _table(["what", "measured", "beside"], rows) + "\n" + s.stamp()
 
 
+def vision_module(src) -> str | None:
+    """The visual perception module on Table 1's test episodes' frames, and what its
+    training took."""
+    s = src["table"]
+    v = (s.data or {}).get("vision") if s.present else None
+    if not v:
+        return None
+    t = s.data.get("vision_training", {})
+    f3 = "{:.3f}".format
+    rows = [["mIoU over the 31 target categories", f3(v["miou"]), f"{v['frames']} frames"],
+            ["found, the category asked for (>= 4 px where it shows >= 50 px within 2 m)",
+             f"**{f3(v['found_asked'])}**", f"{v['found_frames']} frames"],
+            ["false alarms, the category asked for (>= 4 px where it is not visible)",
+             f"**{f3(v['false_alarms_asked'])}**", f"{v['false_alarm_frames']} frames"],
+            ["found, the best of all targets", f3(v["found"]), f"{v['found_frames']} frames"],
+            ["false alarms, the best of all targets", f3(v["false_alarms"]),
+             f"{v['false_alarm_frames']} frames"],
+            ["inference, one thread", f"{v['inference_ms_per_frame_1_thread']:.1f} ms a frame",
+             "300 x 300 RGB-D"]]
+    if t:
+        rows.append(["training", f"{(t.get('frames_seconds') or 0) / 60:.1f} min drawing "
+                     f"{t.get('train_frames')} frames of {t.get('train_episodes')} train "
+                     f"episodes, {(t.get('train_seconds') or 0) / 60:.1f} min training",
+                     f"on {t.get('device', 'cpu')}, "
+                     f"{(t.get('settings') or {}).get('epochs', '?')} epochs"])
+    return (_table(["the visual module", "measured", "over"], rows)
+            + f"\n{v['episodes']} test episodes.\n\n" + s.stamp())
+
+
 #: block name -> renderer (None: nothing to render from; the block is kept)
 RENDERERS: dict[str, Callable[[dict], str | None]] = {
     "results": results, "schema-columns": schema_columns, "schema-arrays": schema_arrays,
     "dataset-stats": dataset_stats, "goals": goals, "energy-by-material": energy_by_material,
     "floors": floors, "drops": drops, "rt60": rt60, "appearance": appearance,
     "table1": table1, "table2": table2, "audio-module": audio_module,
+    "vision-module": vision_module,
     "full-build": full_build, "benches": benches,
 }
 
@@ -485,7 +515,7 @@ def _needs(block: str) -> tuple[str, ...]:
             "goals": ("stats",), "energy-by-material": ("stats",), "rt60": ("stats",),
             "floors": ("loudness",), "drops": ("loudness",), "appearance": ("bench",),
             "benches": ("bench",), "table1": ("table",), "table2": ("table",),
-            "audio-module": ("table",),
+            "audio-module": ("table",), "vision-module": ("table",),
             "full-build": ("bench_full",)}.get(block, ())
 
 

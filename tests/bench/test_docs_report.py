@@ -71,6 +71,12 @@ TABLE = {
         "position_median_error_m": 1.53, "distance_rank_correlation": 0.456,
         "chance": {"category_top1": 0.032, "azimuth_median_error_deg": 90.0},
         "prior": {"category_top1": 0.03, "azimuth_median_error_deg": 28.8}}},
+    "vision": {"episodes": 300, "frames": 1800, "miou": 0.0467, "found": 0.422,
+               "found_frames": 218, "false_alarms": 0.0563, "false_alarm_frames": 551,
+               "found_asked": 0.7798, "false_alarms_asked": 0.0581,
+               "inference_ms_per_frame_1_thread": 11.8},
+    "vision_training": {"train_frames": 24000, "train_episodes": 4000, "frames_seconds": 720.0,
+                        "train_seconds": 1464.0, "device": "cpu", "settings": {"epochs": 4}},
     "timings_s": {"total": 2000.0},
 }
 FULL = {"workers": 2, "wall_min": {"total": 14.321, "rehearse": 3.5, "generate": 10.8},
@@ -168,6 +174,11 @@ def test_every_block_is_written_from_its_json_with_date_machine_and_command(tree
     audio = _block(root, "audio-module")
     assert "| azimuth, median error | **18.2 deg** | 28.8 deg | 90.0 deg |" in audio
     assert "| distance, rank correlation | **0.456** | - | - |" in audio
+    vision = _block(root, "vision-module")
+    assert "| mIoU over the 31 target categories | 0.047 | 1800 frames |" in vision
+    assert "| **0.780** | 218 frames |" in vision and "| **0.058** | 551 frames |" in vision
+    assert "11.8 ms a frame" in vision and "12.0 min drawing 24000 frames of 4000 train " \
+        "episodes, 24.4 min training | on cpu, 4 epochs |" in vision
     assert "| 0.33 [0.26, 0.39] | 0.24 | 0.22 | 200 | 0.34 / 0.23 / 0.20 |" in \
         _block(root, "table2")
     goals = _block(root, "goals")

@@ -53,9 +53,13 @@ AUDIO_MODELS = (("all", None), ("kitchen", "kitchen"), ("study", "study"))
 _PAPER1 = {name.strip(): (sr, spl, sna) for name, sr, spl, sna in PAPER_TABLE1}
 
 
-#: the packages whose code decides a row's episodes (the agents, what they see and how they
-#: are scored): a row made by other code is run again, not kept
-AGENT_CODE = ("agents", "env", "evaluation", "nav", "perception", "learn", "vision", "world")
+#: what table.json keeps of the visual module's training (its model file holds the rest)
+VISION_TRAINING = ("train_frames", "train_episodes", "frames_seconds", "train_seconds",
+                   "device", "settings")
+#: the code that decides a row's episodes (the agents, what they see, how they are played and
+#: scored; not how the table is written): a row made by other code is run again, not kept
+AGENT_CODE = ("agents", "env", "nav", "perception", "learn", "vision", "world",
+              "evaluation/runner.py", "evaluation/evaluate.py", "evaluation/scores.py")
 
 
 @dataclass(frozen=True)
@@ -309,6 +313,8 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
     write_text(out / "table.json", json.dumps(
         {"selection": run.selection, "results": {k: _brief(v) for k, v in run.results.items()},
          "audio": run.audio, "vision": run.vision,
+         "vision_training": {k: run.vision_meta[k] for k in VISION_TRAINING
+                             if k in run.vision_meta},
          "timings_s": {k: round(v, 1) for k, v in run.timings.items()}},
         indent=1, sort_keys=True) + "\n")
     write_text(out / "table.md", markdown(run))
