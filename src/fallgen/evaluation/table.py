@@ -274,6 +274,7 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
             run.timings.update(part.timings)
 
     # -- the agents ----------------------------------------------------------------------------
+    code = "+".join(code_digest(g) for g in AGENT_CODE)
     for row in rows_table1() + rows_table2():
         ids = chosen[row.episodes]
         if not ids or (row.model and models[row.model] is None) or \
@@ -289,7 +290,6 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
         ref = AgentRef("baseline", row.name, oracles=row.oracles, kwargs=kwargs)
         row_dir = out / ROWS / row.key
         old = _read_json(row_dir / "summary.json")
-        code = "+".join(code_digest(g) for g in AGENT_CODE)
         if old is not None and old.get("manifest_sha256") == sha and \
                 old.get("code_digest") == code and \
                 old.get("agent") == ref.describe() and old.get("seed") == seed and \

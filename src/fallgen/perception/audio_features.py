@@ -269,18 +269,23 @@ class AudioFeatures:
         return np.asarray(out)
 
 
-    @cached_property
-    def _octaves(self) -> dict[float, np.ndarray]:
-        """Fourth-order Butterworth octave band-passes (second-order sections) of the ratios'
-        bands, and of the 1-8 kHz band the first reflection is looked for in."""
+    def _band_pass(self, lo_hz: float, hi_hz: float) -> np.ndarray:
+        """A fourth-order Butterworth band-pass, as second-order sections."""
         from scipy.signal import butter
 
-        nyq = 0.49 * self.sample_rate
-        out = {f: butter(4, (f / math.sqrt(2), min(f * math.sqrt(2), nyq)), "bandpass",
-                         fs=self.sample_rate, output="sos") for f in self.drr_bands_hz}
-        out[0.0] = butter(4, (1000.0, min(8000.0, nyq)), "bandpass", fs=self.sample_rate,
-                          output="sos")
-        return out
+        return butter(4, (lo_hz, min(hi_hz, 0.49 * self.sample_rate)), "bandpass",
+                      fs=self.sample_rate, output="sos")
+
+    @cached_property
+    def _octaves(self) -> dict[float, np.ndarray]:
+        """The octave band-passes of the ratios' bands, by centre frequency."""
+        return {f: self._band_pass(f / math.sqrt(2), f * math.sqrt(2))
+                for f in self.drr_bands_hz}
+
+    @cached_property
+    def _reflection_band(self) -> np.ndarray:
+        """The 1-8 kHz band-pass the first reflection is looked for in."""
+        return self._band_pass(1000.0, 8000.0)
 
     def _reverberance(self, x: np.ndarray, first: int, power: np.ndarray) -> np.ndarray:
         """The direct-to-reverberant ratios (log10) and the first reflection (dB against the
@@ -316,7 +321,7 @@ class AudioFeatures:
         # the strongest arrival above 1 kHz 2-15 ms after the direct one (its peak within
         # 3 ms of the onset), from 1 ms before the onset
         b0 = max(0, first - int(0.001 * fs))
-        hp = sosfilt(self._octaves[0.0], x[:, b0:b0 + int(0.025 * fs)], axis=-1)
+        hp = sosfilt(self._reflection_band, x[:, b0:b0 + int(0.025 * fs)], axis=-1)
         env = (hp ** 2).sum(axis=0)
         d0 = int(np.argmax(env[:int(0.003 * fs)])) if len(env) else 0
         later = env[d0 + int(0.002 * fs):d0 + int(0.015 * fs)]

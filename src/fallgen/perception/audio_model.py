@@ -139,6 +139,7 @@ class AudioModel:
         already at hand)."""
         from sklearn.ensemble import ExtraTreesClassifier, ExtraTreesRegressor
         from sklearn.model_selection import KFold, cross_val_predict
+        from threadpoolctl import threadpool_limits
 
         if len(rows) < 2:
             raise ValueError(f"{len(rows)} training episode(s): need at least 2")
@@ -156,16 +157,14 @@ class AudioModel:
         bag = {**common, "max_features": 0.5, "bootstrap": len(rows) > 2,
                "oob_score": len(rows) > 2}
         reg = ExtraTreesRegressor(**bag).fit(X[:, features.spatial], Y[:, :2])
-        from threadpoolctl import threadpool_limits
-
+        held = None
         with threadpool_limits(1, user_api="openmp"):  # one thread, as the trees above
             dist = distance_regressor(seed).fit(X, Y[:, 2])
-        err = 1.0
-        if len(rows) >= 10 and hasattr(reg, "oob_prediction_"):
-            # the distance's held-out predictions: 5 folds
-            with threadpool_limits(1, user_api="openmp"):
+            if len(rows) >= 10:  # the distance's held-out predictions: 5 folds
                 held = cross_val_predict(distance_regressor(seed), X, Y[:, 2],
                                          cv=KFold(5, shuffle=True, random_state=seed))
+        err = 1.0
+        if held is not None and hasattr(reg, "oob_prediction_"):
             oob = np.column_stack([reg.oob_prediction_, held])
             ok = np.isfinite(oob).all(axis=1)
             if ok.any():
