@@ -75,16 +75,20 @@ bench-full: setup
 
 ## table: the paper's Table 1 and Table 2 on the paper-size build (made first when missing),
 ## with the learned audio module: build/table/table.md. TABLE_EPISODES per Table 1 row and
-## TABLE_CROSS per room kind in Table 2 (0: every test episode).
+## TABLE_CROSS per room kind in Table 2 (0: every test episode). TABLE_POLICIES: trained runs
+## to score in Table 1, e.g. "dt=runs/dt ppo=runs/ppo savi=runs/savi" (fallgen train).
 TABLE_DATASET ?= build/full
 TABLE_EPISODES ?= 300
 TABLE_CROSS ?= 200
+TABLE_POLICIES ?=
 table: setup
 	@test -f $(TABLE_DATASET)/manifest.json || $(MAKE) dataset
 	$(FALLGEN) table $(TABLE_DATASET) -o build/table --episodes $(TABLE_EPISODES) \
-		--cross-episodes $(TABLE_CROSS) --workers $(WORKERS)
+		--cross-episodes $(TABLE_CROSS) --workers $(WORKERS) \
+		$(foreach p,$(TABLE_POLICIES),--policy $(p))
 	$(PY) bench/provenance.py build/table/table.json make table TABLE_DATASET=$(TABLE_DATASET) \
-		TABLE_EPISODES=$(TABLE_EPISODES) TABLE_CROSS=$(TABLE_CROSS)
+		TABLE_EPISODES=$(TABLE_EPISODES) TABLE_CROSS=$(TABLE_CROSS) \
+		TABLE_POLICIES="$(TABLE_POLICIES)"
 
 ## report: the figures of README.md and docs/*.md made again from the JSON the targets above
 ## wrote (build/bench.json, bench-full.json, loudness.json, full-stats.json, table/table.json),

@@ -112,14 +112,19 @@ def _g(x) -> str:
 
 # --- the blocks ----------------------------------------------------------------------------------
 
-def _rows_of_table() -> dict[str, tuple[str, tuple | None]]:
-    """key -> (label, the paper's SR / SPL / SNA) of the rows ``fallgen table`` makes."""
+def _rows_of_table(data: dict) -> dict[str, tuple[str, tuple | None]]:
+    """key -> (label, the paper's SR / SPL / SNA) of the rows ``fallgen table`` made into
+    ``data`` (table.json: the trained policies' labels carry their budgets), in the tables'
+    order."""
     try:
         sys.path.insert(0, str(REPO / "src"))
         from fallgen.evaluation.table import rows_table1, rows_table2
+        from fallgen.evaluation.table_policies import PolicyRun
     except ImportError:  # an older fallgen: the keys stand for themselves
         return {}
-    return {r.key: (r.label, r.paper) for r in [*rows_table1(), *rows_table2()]}
+    policies = [PolicyRun(kind, Path(t.get("checkpoint", "")), t.get("sha256", ""), t)
+                for kind, t in data.get("policy_training", {}).items()]
+    return {r.key: (r.label, r.paper) for r in [*rows_table1(policies), *rows_table2()]}
 
 
 def _score(s: dict, ci: bool = True) -> list[str]:
@@ -149,7 +154,7 @@ def results(src: dict[str, Source]) -> str | None:
         rows.append(["paper-size build from scratch", "not yet measured (`make bench-full`)",
                      "~8 h (the original)"])
     if table.present:
-        names = _rows_of_table()
+        names = _rows_of_table(table.data)
         order = {k: i for i, k in enumerate(names)}  # the tables' own order, Table 1 first
         done = table.data["results"]
         for key, s in sorted(done.items(), key=lambda kv: order.get(kv[0], len(order))):
@@ -307,9 +312,11 @@ def _table_rows(src, keys: Callable[[str], bool]) -> tuple[list, Source] | None:
     s = src["table"]
     if not s.present:
         return None
-    names = _rows_of_table()
+    names = _rows_of_table(s.data)
+    order = {k: i for i, k in enumerate(names)}  # the tables' own order
     rows = []
-    for key, r in s.data["results"].items():
+    for key, r in sorted(s.data["results"].items(),
+                         key=lambda kv: order.get(kv[0], len(order))):
         if keys(key):
             label, paper = names.get(key, (key, None))
             rows.append([label, *_score(r), r.get("n", "?"), _paper(paper)])

@@ -359,11 +359,15 @@ def register(app: typer.Typer, console: Console) -> None:
             "instead of training one.")] = None,
         device: Annotated[str, typer.Option(help="Where the visual module trains and is "
                                             "scored: cpu or cuda.")] = "cpu",
+        policy: Annotated[Optional[list[str]], typer.Option(
+            "--policy", help="KIND=RUN (repeatable; KIND: dt, ppo, savi): score this trained "
+            "run (fallgen train) in Table 1, labelled with its training's budget.",
+            show_default=False)] = None,
         data_dir: Annotated[Optional[Path], typer.Option(
             "--data-dir", help="World data the dataset was built with (default: built-in).",
             show_default=False)] = None,
     ) -> None:
-        """The paper's Table 1 (random, Object-Goal, the modular agent with the learned audio
+        """The paper's Table 1 (random, the learned policies given, Object-Goal, the modular agent with the learned audio
         and visual modules and the paper's oracle ablations, the expert) and Table 2 (the
         audio module learned on one room kind, tested on the other) with 95 % intervals,
         into OUT/table.md; reruns keep what is done."""
@@ -372,7 +376,10 @@ def register(app: typer.Typer, console: Console) -> None:
 
         from fallgen.evaluation.table import make_table
 
+        from fallgen.cli_train import policy_runs
+
         _open(dataset)
+        policies = policy_runs(dataset, list(policy or []))
         if vision:
             from fallgen.cli_vision import device_name
 
@@ -394,7 +401,7 @@ def register(app: typer.Typer, console: Console) -> None:
                                  trees=trees, data_dir=data_dir, vision=vision,
                                  vision_frames=vision_frames, vision_epochs=vision_epochs,
                                  device=device, vision_model=vision_model,
-                                 log=console.print, progress=progress)
+                                 policies=policies, log=console.print, progress=progress)
             except ValueError as e:
                 raise InputError(dataset, _field(str(e), "data/"), str(e)) from None
         console.print((out / "table.md").read_text())

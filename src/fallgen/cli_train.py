@@ -5,7 +5,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated, Any, Optional
 
 import typer
 
@@ -129,11 +129,23 @@ def register(app: typer.Typer, console) -> None:
                                  "(at most one worker an episode)")
         extra = {"expert": expert} if kind == "dt" else {}
         limit = minutes if minutes is not None else mod.DEFAULT_MINUTES
-        try:
-            res = mod.train(dataset, run, config, digest, seed=seed, device=device,
-                            minutes=limit, threads=threads, **extra)
-        except ValueError as e:
-            raise InputError("<command line>", "DATASET", str(e)) from None
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, \
+            TimeElapsedColumn
+
+        with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                      TimeElapsedColumn(), console=console) as bar:
+            tasks: dict[str, Any] = {}
+
+            def progress(step: str, done: int, total: int) -> None:
+                if step not in tasks:
+                    tasks[step] = bar.add_task(step, total=total)
+                bar.update(tasks[step], completed=done, total=total)
+
+            try:
+                res = mod.train(dataset, run, config, digest, seed=seed, device=device,
+                                minutes=limit, threads=threads, progress=progress, **extra)
+            except ValueError as e:
+                raise InputError("<command line>", "DATASET", str(e)) from None
         h, m = divmod(int(res["wall_s"]) // 60, 60)
         what = "timesteps" if kind != "dt" else "gradient steps"
         state = "budget spent" if res["done"] else \
@@ -144,4 +156,32 @@ def register(app: typer.Typer, console) -> None:
                       highlight=False, soft_wrap=True)
 
 
-__all__ = ["register", "parse_sets", "MUTABLE"]
+def policy_runs(dataset: Path, specs: list[str]) -> list:
+    """``fallgen table --policy KIND=RUN``: the runs' last checkpoints (or the checkpoint files
+    given) as :class:`fallgen.evaluation.table_policies.PolicyRun`, each checked to be of its
+    kind and made on ``dataset``; InputError (one line) otherwise, before any work."""
+    if not specs:
+        return []
+    from fallgen.dataset.manifest import sha256 as file_sha256
+    from fallgen.evaluation.table_policies import PolicyRun, parse_policies
+
+    try:
+        runs = parse_policies(specs)
+    except ValueError as e:
+        raise InputError("<command line>", "--policy", str(e)) from None
+    try:
+        from fallgen.policies.runs import dataset_hash, find_checkpoint, load_checkpoint, \
+            training_summary
+    except ImportError as e:
+        raise InputError("<command line>", "--policy", f"needs torch: pip install "
+                         f"'fallgen[learn]' ({e})") from None
+    digest = dataset_hash(dataset)
+    out = []
+    for kind, run in runs.items():
+        path = find_checkpoint(run)
+        ck = load_checkpoint(path, kind, digest)
+        out.append(PolicyRun(kind, path.resolve(), file_sha256(path), training_summary(ck)))
+    return out
+
+
+__all__ = ["register", "parse_sets", "policy_runs", "MUTABLE"]

@@ -107,3 +107,33 @@ def test_the_experts_path_without_found_ends_in_success(tiny_dataset):
                 info["distance_to_object_m"] <= SUCCESS_M
     finally:
         env.close()
+
+
+def test_the_random_walk_with_the_oracle_moves_and_ends_only_by_the_rule(tiny_dataset,
+                                                                        tmp_path, cli):
+    """``RandomAgent(oracle_found=True)`` scored by ``fallgen evaluate``: it never claims (only
+    the five moves), every episode it wins ends on a pose where the rule holds (its last
+    pose, replayed, is within 2 m with the object in view), and every other runs to the
+    action limit."""
+    import json
+
+    from fallgen.env import FallenObjectsEnv
+    from fallgen.nav.agent import MAX_ACTIONS
+
+    out = tmp_path / "rw"
+    assert cli("evaluate", str(tiny_dataset), "--split", "all", "--workers", "1", "--agent",
+               "fallgen.agents.random_agent:RandomAgent", "--agent-kwargs",
+               '{"oracle_found": true}', "-o", str(out)) == 0
+    eps = [json.loads(x) for x in (out / "episodes.jsonl").read_text().splitlines()]
+    assert eps and all(max(e["actions"]) < 5 and e["claims"] == 0 for e in eps)
+    env = FallenObjectsEnv(tiny_dataset, sensors=("pose",))
+    try:
+        for e in eps:
+            env.reset(options={"episode_id": e["episode_id"]})
+            for a in e["actions"]:
+                env.step(a)
+            near, seen = _rule(env, env.pose)
+            assert e["success"] == (near and seen)
+            assert e["success"] or len(e["actions"]) == MAX_ACTIONS
+    finally:
+        env.close()

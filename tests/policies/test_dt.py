@@ -96,3 +96,26 @@ def test_an_export_without_the_sensors_is_refused(tiny_dataset, tmp_path, cli, c
                str(out / "expert.h5")) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "expert.h5: sensors: lacks rgb" in err, err
+
+
+def test_a_run_exports_a_seeded_subsample_of_the_split(tiny_dataset, tmp_path, cli):
+    """``--set episodes=N``: the run exports N of the train split's episodes, those that
+    ``SeedSequence(seed, spawn_key=(7,))`` draws from the sorted ids, and learns from them."""
+    import h5py
+
+    import fallgen.dataset
+
+    train = sorted(fallgen.dataset.open(tiny_dataset).ids("train"))
+    assert len(train) >= 2
+    drawn = set()
+    for seed in (0, 1, 2):
+        run = tmp_path / f"s{seed}"
+        assert cli("train", "dt", str(tiny_dataset), "-o", str(run), "--budget", "1",
+                   "--seed", str(seed), "--set", "episodes=1", *SMALL) == 0
+        with h5py.File(run / "expert" / "expert.h5", "r") as f:
+            got = sorted(int(g.attrs["episode_id"]) for g in f["episodes"].values())
+        rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(7,)))
+        assert got == sorted(train[i] for i in rng.choice(len(train), 1, replace=False))
+        assert np.load(run / "cache" / "episode_id.npy").tolist() == got
+        drawn.add(got[0])
+    assert len(drawn) == 2  # the seeds drew both episodes, not always the first

@@ -141,3 +141,48 @@ def test_the_agent_sees_what_training_saw(tiny_dataset):
         raw.close()
         wrapped.close()
 
+
+
+def test_the_table_scores_a_trained_run_beside_the_random_walk(tiny_dataset, tmp_path, cli,
+                                                               capsys):
+    """``fallgen table --policy ppo=RUN``: Table 1 gains the run's row (labelled with what its
+    training spent, the paper's PPO beside it) and the random walk with the oracle found; the
+    row is the run scored by ``fallgen evaluate`` on the same episodes; a rerun keeps it, a
+    newer checkpoint runs it again; a malformed or foreign run is refused in one line."""
+    import json
+
+    run = tmp_path / "ppo"
+    assert cli("train", "ppo", str(tiny_dataset), "-o", str(run), "--budget", "16",
+               *SMALL) == 0
+    out = tmp_path / "table"
+    args = ("table", str(tiny_dataset), "-o", str(out), "--trees", "5", "--workers", "1",
+            "--no-vision", "--episodes", "2", "--policy", f"ppo={run}")
+    assert cli(*args) == 0
+    data = json.loads((out / "table.json").read_text())
+    md = (out / "table.md").read_text()
+    assert {"ppo", "random_oracle_found"} <= set(data["results"])
+    assert "PPO (oracle found) (16 environment steps, 0 min)" in md
+    assert "0.19 / 0.15 / 0.14" in md and "Random walk (oracle found)" in md
+    assert data["policy_training"]["ppo"]["steps"] == 16
+    row = [json.loads(x) for x in (out / "rows" / "ppo" / "episodes.jsonl").read_text()
+           .splitlines()]
+    ids = [e["episode_id"] for e in row]
+    ev = tmp_path / "eval"
+    assert cli("evaluate", str(tiny_dataset), "--agent", str(run), "--episodes",
+               ",".join(map(str, ids)), "--workers", "1", "-o", str(ev)) == 0
+    alone = [json.loads(x) for x in (ev / "episodes.jsonl").read_text().splitlines()]
+    assert [e["actions"] for e in alone] == [e["actions"] for e in row]
+    summary = out / "rows" / "ppo" / "summary.json"
+    before = summary.stat().st_mtime_ns
+    assert cli(*args) == 0
+    assert summary.stat().st_mtime_ns == before  # kept
+    assert cli("train", "ppo", str(tiny_dataset), "-o", str(run), "--budget", "32") == 0
+    assert cli(*args) == 0
+    assert summary.stat().st_mtime_ns != before  # the run's newer checkpoint: run again
+    assert json.loads(summary.read_text())["checkpoint_sha256"] != \
+        data["policy_training"]["ppo"]["sha256"]
+    capsys.readouterr()
+    for bad in ("ppo", f"sac={run}", f"dt={run}"):
+        assert cli(*args[:-1], bad) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1, err

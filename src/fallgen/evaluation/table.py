@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import json
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -44,6 +44,8 @@ from fallgen.evaluation.scores import (
     markdown_table,
     table_rows,
 )
+from fallgen.evaluation.table_policies import KINDS, POLICY_FACTORY, RANDOM_FACTORY, \
+    RANDOM_ORACLE, PolicyRun, budget, policy_lines
 from fallgen.evaluation.table_vision import failure_lines, vision_lines
 
 ROWS = "rows"
@@ -60,13 +62,16 @@ VISION_TRAINING = ("train_frames", "train_episodes", "frames_seconds", "train_se
 #: scored; not how the table is written): a row made by other code is run again, not kept
 AGENT_CODE = ("agents", "env", "nav", "perception", "learn", "vision", "world",
               "evaluation/runner.py", "evaluation/evaluate.py", "evaluation/scores.py")
+#: and, for a trained policy's row, the code that plays it
+POLICY_CODE = ("policies",)
 
 
 @dataclass(frozen=True)
 class Row:
     """One line of a table: ``key`` names its directory under ``OUT/rows``; ``model`` the audio
     model it uses (None: none); ``vision`` whether it uses the visual module; ``episodes``
-    which selection it runs on."""
+    which selection it runs on; ``factory`` (``module:function``, called with ``kwargs``)
+    plays instead of the baseline ``name``, and ``checkpoint_sha256`` is its checkpoint's."""
 
     key: str
     label: str
@@ -77,14 +82,37 @@ class Row:
     paper: tuple[float, float, float] | None = None
     note: str = ""
     vision: bool = False
+    factory: str = ""
+    kwargs: tuple[tuple[str, Any], ...] = ()
+    checkpoint_sha256: str | None = None
+
+    def agent(self, models: Mapping[str, str] | None = None) -> AgentRef:
+        """The agent that plays the row; ``models``: a baseline's model files by keyword."""
+        if self.factory:
+            return AgentRef("factory", self.factory, kwargs=dict(self.kwargs))
+        return AgentRef("baseline", self.name, oracles=self.oracles, kwargs=dict(models or {}))
 
 
-def rows_table1() -> list[Row]:
-    """Table 1: each of the paper's modular rows and Object-Goal with the same kind of
+def rows_policies(policies: Sequence[PolicyRun] = ()) -> list[Row]:
+    """The random walk with the oracle found (PPO's floor), then each trained policy given,
+    in the paper's order, labelled with its training's budget."""
+    rows = [Row(RANDOM_ORACLE, "Random walk (oracle found)", "", factory=RANDOM_FACTORY,
+                kwargs=(("oracle_found", True),))]
+    for p in sorted(policies, key=lambda p: list(KINDS).index(p.kind)):
+        rows.append(Row(p.kind, f"{KINDS[p.kind]} ({budget(p.training)})", "",
+                        paper=_PAPER1[KINDS[p.kind]], factory=POLICY_FACTORY,
+                        kwargs=(("run", str(p.checkpoint)),), checkpoint_sha256=p.sha256))
+    return rows
+
+
+def rows_table1(policies: Sequence[PolicyRun] = ()) -> list[Row]:
+    """Table 1: the random agent, the learned policies given (and the random walk with the
+    oracle found), each of the paper's modular rows and Object-Goal with the same kind of
     modules (learned where the paper's were, oracles where its were)."""
     seg, obj, loc = "segmentation", "category", "location"
     return [
         Row("random", "Random", "random"),
+        *rows_policies(policies),
         Row("objectgoal", "Object-Goal (vision, 5 candidate categories, no audio)",
             "objectgoal", (), paper=_PAPER1["Object-Goal"], vision=True),
         Row("modular_av", "Modular Planning (audio + vision)", "modular", (), "all",
@@ -126,6 +154,7 @@ class TableRun:
     vision_meta: dict = field(default_factory=dict)
     timings: dict[str, float] = field(default_factory=dict)
     selection: dict[str, Any] = field(default_factory=dict)
+    policies: list[PolicyRun] = field(default_factory=list)
 
 
 def subsample(ids: Sequence[int], n: int, seed: int, salt: int) -> list[int]:
@@ -154,7 +183,7 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
                cross_episodes: int = 200, workers: int = 1, seed: int = 0, trees: int = 300,
                data_dir: str | Path | None = None, vision: bool = True,
                vision_frames: int = 24000, vision_epochs: int = 4, device: str = "cpu",
-               vision_model: str | Path | None = None,
+               vision_model: str | Path | None = None, policies: Sequence[PolicyRun] = (),
                log: Callable[[str], None] = lambda _: None,
                progress: Callable[[str, int, int], None] | None = None) -> TableRun:
     """Train the audio models and the visual module, run every row of both tables and write
@@ -163,7 +192,8 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
     (or no torch) leaves out the rows that need the visual module; ``vision_frames`` and
     ``vision_epochs`` its training (``fallgen vision-model train``'s ``--frames`` and
     ``--epochs``), on ``device``; ``vision_model``: a model file of this dataset to use
-    instead of training one. ``progress(step, done, total)``."""
+    instead of training one; ``policies``: trained runs to score (:class:`PolicyRun`).
+    ``progress(step, done, total)``."""
     from fallgen.atomic import write_text
     from fallgen.dataset.integrity import code_digest
     from fallgen.dataset.manifest import sha256 as file_sha256
@@ -274,8 +304,11 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
             run.timings.update(part.timings)
 
     # -- the agents ----------------------------------------------------------------------------
-    code = "+".join(code_digest(g) for g in AGENT_CODE)
-    for row in rows_table1() + rows_table2():
+    base_code = "+".join(code_digest(g) for g in AGENT_CODE)
+    policy_code = base_code + "+" + "+".join(code_digest(g) for g in POLICY_CODE)
+    run.policies = list(policies)
+    for row in rows_table1(policies) + rows_table2():
+        code = policy_code if row.factory == POLICY_FACTORY else base_code
         ids = chosen[row.episodes]
         if not ids or (row.model and models[row.model] is None) or \
                 (row.vision and vision_path is None):
@@ -287,14 +320,15 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
         if row.vision:
             kwargs["vision_model"] = str(vision_path)
             vision_sha = file_sha256(vision_path)
-        ref = AgentRef("baseline", row.name, oracles=row.oracles, kwargs=kwargs)
+        ref = row.agent(kwargs)
         row_dir = out / ROWS / row.key
         old = _read_json(row_dir / "summary.json")
         if old is not None and old.get("manifest_sha256") == sha and \
                 old.get("code_digest") == code and \
                 old.get("agent") == ref.describe() and old.get("seed") == seed and \
                 old.get("episode_ids") == ids and old.get("audio_model_sha256") == model_sha \
-                and old.get("vision_model_sha256") == vision_sha:
+                and old.get("vision_model_sha256") == vision_sha and \
+                old.get("checkpoint_sha256") == row.checkpoint_sha256:
             run.results[row.key] = old
             run.timings[row.key] = float(old.get("wall_s", 0.0))
             log(f"{row.key}: kept ({old['n']} episodes)")
@@ -304,7 +338,8 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
                       data_dir=data_dir, progress=_step(progress, row.key, len(ids)))
         wall = time.perf_counter() - t0
         ev.summary.update({"episode_ids": ids, "wall_s": round(wall, 1), "code_digest": code,
-                           "audio_model_sha256": model_sha, "vision_model_sha256": vision_sha})
+                           "audio_model_sha256": model_sha, "vision_model_sha256": vision_sha,
+                           "checkpoint_sha256": row.checkpoint_sha256})
         write(ev, row_dir)
         run.results[row.key] = ev.summary
         run.timings[row.key] = wall
@@ -315,6 +350,8 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
          "audio": run.audio, "vision": run.vision,
          "vision_training": {k: run.vision_meta[k] for k in VISION_TRAINING
                              if k in run.vision_meta},
+         "policy_training": {p.kind: {"checkpoint": str(p.checkpoint), "sha256": p.sha256,
+                                      **p.training} for p in run.policies},
          "timings_s": {k: round(v, 1) for k, v in run.timings.items()}},
         indent=1, sort_keys=True) + "\n")
     write_text(out / "table.md", markdown(run))
@@ -372,7 +409,7 @@ def markdown(run: TableRun) -> str:
              + f"Table 2: {sel['kitchen']} kitchen and {sel['study']} study-room test "
              "episodes (seeded; `--cross-episodes`).", ""]
     lines += ["## Table 1 (test split)", "", markdown_table(
-        [_result(run, row) for row in rows_table1() if row.key in run.results],
+        [_result(run, row) for row in rows_table1(run.policies) if row.key in run.results],
         ("Method", "SR [95 % CI]", "SPL", "SNA", "paper SR / SPL / SNA", "episodes", "time")
     ).rstrip("\n")]
     lines += ["", "Each row has the paper's kind of modules: the learned audio module wherever "
@@ -383,8 +420,9 @@ def markdown(run: TableRun) -> str:
               "Object-Goal has the visual module and no audio: told five candidate "
               "categories (the true one and four drawn per episode), it explores frontiers "
               "and claims the candidate-category object it has seen best.", ""]
+    lines += policy_lines(run.policies, run.results)
     lines += vision_lines(run.vision, run.vision_meta)
-    lines += failure_lines(run.results, {r.key: r.label for r in rows_table1()})
+    lines += failure_lines(run.results, {r.key: r.label for r in rows_table1(run.policies)})
     lines += ["",
               "## Table 2 (cross-scene: the audio module learned on one room kind, tested on "
               "the other; modular agent + audio + GT segmentation)", ""]
@@ -429,4 +467,4 @@ def markdown(run: TableRun) -> str:
 
 
 __all__ = ["Row", "TableRun", "make_table", "markdown", "rows_table1", "rows_table2",
-           "subsample"]
+           "rows_policies", "subsample"]

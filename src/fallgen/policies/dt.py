@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -73,6 +73,8 @@ class DtSettings:
     return_scale: float = 20.0
     split: str = "train"
     room_kind: str | None = None
+    #: how many of the split's episodes to export and learn from (0: all), a seeded subsample
+    episodes: int = 0
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -167,13 +169,16 @@ def _return_stats(data: Mapping[str, np.ndarray], episodes: np.ndarray) -> dict[
 
 def train(dataset: str | Path, run: Run, cfg: Mapping[str, Any], digest: str, *,
           seed: int = 0, device: str = "cpu", minutes: float | None = DEFAULT_MINUTES,
-          threads: int = 1, expert: str | Path | None = None) -> dict[str, Any]:
-    """Train (or go on training) the Decision Transformer of ``run`` (module docstring)."""
+          threads: int = 1, expert: str | Path | None = None,
+          progress: Callable[[str, int, int], None] | None = None) -> dict[str, Any]:
+    """Train (or go on training) the Decision Transformer of ``run`` (module docstring);
+    ``progress(step, done, total)`` for the export, the conversion and the gradient steps."""
     from fallgen.policies.dt_data import Windows, build_cache, expert_file, split_episodes
 
     dev = resolve_device(device)
-    h5 = expert_file(dataset, digest, run.root, expert, cfg["split"], cfg.get("room_kind"))
-    data = build_cache(h5, run.root / "cache", int(cfg["sample_rate"]))
+    h5 = expert_file(dataset, digest, run.root, expert, cfg["split"], cfg.get("room_kind"),
+                     int(cfg.get("episodes", 0)), seed, progress)
+    data = build_cache(h5, run.root / "cache", int(cfg["sample_rate"]), progress)
     train_eps, held_eps = split_episodes(len(data["start"]), float(cfg["holdout"]), seed)
     k = int(cfg["context"])
     windows, held = Windows(data, train_eps, k), Windows(data, held_eps, k)
@@ -248,6 +253,8 @@ def train(dataset: str | Path, run: Run, cfg: Mapping[str, Any], digest: str, *,
             opt.step()
             sched.step()
             step += 1
+            if progress is not None:
+                progress("gradient steps", step, total)
             acc["loss"] += loss.item()
             acc["right"] += right
             acc["n"] += n

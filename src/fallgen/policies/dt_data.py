@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -27,12 +27,18 @@ from fallgen.policies import SENSORS
 
 IMAGE_SHAPES = {"rgb": (84, 84, 3), "depth": (84, 84, 1), "category_seg": (84, 84, 1)}
 CACHE_FORMAT = "fallgen-dt-cache/1"
+#: the spawn key of the generator that draws the exported episodes (``episodes`` > 0)
+EXPORT_SALT = 7
 
 
 def expert_file(dataset: str | Path, digest: str, run_root: Path, given: str | Path | None,
-                split: str = "train", room_kind: str | None = None) -> Path:
+                split: str = "train", room_kind: str | None = None, episodes: int = 0,
+                seed: int = 0, progress: Callable[[str, int, int], None] | None = None
+                ) -> Path:
     """The expert trajectories to train on: ``given`` (checked: made from ``dataset``, with
-    the sensors the policy reads), or ``RUN/expert/expert.h5``, exported here if missing."""
+    the sensors the policy reads), or ``RUN/expert/expert.h5``, exported here if missing:
+    the split's episodes of ``room_kind``, or ``episodes`` of them drawn with ``seed`` (0:
+    all); ``progress(step, done, total)``."""
     import h5py
 
     if given is None:
@@ -42,8 +48,19 @@ def expert_file(dataset: str | Path, digest: str, run_root: Path, given: str | P
             from fallgen.dataset.reader import Dataset
             from fallgen.evaluation.trajectories import export_expert
 
+            from fallgen.learn.vision_jobs import subsample_rows
+
             ids = select(Dataset(dataset), split, room_kind)
-            export_expert(dataset, path.parent, ids, SENSORS)
+            ids = [r["episode_id"] for r in subsample_rows(
+                [{"episode_id": i} for i in ids], episodes, seed, EXPORT_SALT)]
+            done = [0]
+
+            def tick(n: int) -> None:
+                done[0] += n
+                if progress is not None:
+                    progress("expert trajectories", done[0], len(ids))
+
+            export_expert(dataset, path.parent, ids, SENSORS, progress=tick)
     else:
         path = Path(given)
         if path.is_dir():
@@ -73,9 +90,10 @@ def _npy(path: Path, shape: tuple[int, ...], dtype) -> np.ndarray:
     return np.lib.format.open_memmap(path, mode="w+", dtype=dtype, shape=shape)
 
 
-def build_cache(h5_path: Path, cache: Path, sample_rate: int) -> dict[str, Any]:
+def build_cache(h5_path: Path, cache: Path, sample_rate: int,
+                progress: Callable[[str, int, int], None] | None = None) -> dict[str, Any]:
     """Convert the trajectories (module docstring) into ``cache`` unless it already holds
-    this file's; the arrays, memory-mapped."""
+    this file's; the arrays, memory-mapped. ``progress(step, done, total)``."""
     import h5py
 
     from fallgen.policies.encoder import compactor
@@ -122,6 +140,8 @@ def build_cache(h5_path: Path, cache: Path, sample_rate: int) -> dict[str, Any]:
             arr["episode"][at:at + k] = e
             start[e], ids[e] = at, int(g.attrs["episode_id"])
             at += k
+            if progress is not None:
+                progress("compact trajectories", e + 1, len(names))
     np.save(cache / "start.npy", start)
     np.save(cache / "episode_id.npy", ids)
     for a in arr.values():

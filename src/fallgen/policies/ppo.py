@@ -20,7 +20,7 @@ processes for ~10^7 steps).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -89,12 +89,14 @@ def make_model(cfg: Mapping[str, Any], venv, device):
 
 def train(dataset: str | Path, run, cfg: Mapping[str, Any], digest: str, *, seed: int = 0,
           device: str = "cpu", minutes: float | None = DEFAULT_MINUTES,
-          threads: int = 1) -> dict[str, Any]:
+          threads: int = 1, progress: Callable[[str, int, int], None] | None = None
+          ) -> dict[str, Any]:
     """Train (or go on training) PPO with the oracle found on ``dataset``'s train split."""
     return train_on_env("ppo", dataset, run, cfg, digest,
                         lambda venv, dev: make_model(cfg, venv, dev), seed=seed,
                         device=device, minutes=minutes, threads=threads, n_actions=N_MOVES,
-                        env_kwargs={"oracle_found": True, "reward": "paper"})
+                        env_kwargs={"oracle_found": True, "reward": "paper"},
+                        progress=progress)
 
 
 def compact_space(sample_rate: int) -> spaces.Dict:

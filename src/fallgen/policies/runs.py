@@ -150,6 +150,16 @@ def find_checkpoint(run_or_file: str | Path) -> Path:
     return last
 
 
+def training_summary(ck: Mapping[str, Any]) -> dict[str, Any]:
+    """What a checkpoint's training spent: ``steps`` (environment steps, or gradient steps for
+    the Decision Transformer, ``unit``), ``updates``, ``wall_s``, ``settings``."""
+    dt = ck.get("kind") == "dt"
+    return {"kind": ck.get("kind"), "steps": int(ck.get("update" if dt else "timesteps", 0)),
+            "unit": "gradient steps" if dt else "environment steps",
+            "updates": int(ck.get("update", 0)), "wall_s": round(float(ck.get("wall_s", 0.0)), 1),
+            "settings": dict(ck.get("config", {}))}
+
+
 def apply_overrides(obj: Any, overrides: Mapping[str, Any] | None) -> Any:
     """The settings dataclass ``obj`` with ``overrides`` (name -> value, converted to each
     field's type); ValueError naming an unknown or malformed one."""
@@ -284,4 +294,4 @@ def curve_png(path: str | Path, rows: Sequence[Mapping[str, Any]], x: str,
 
 
 __all__ = ["FORMAT", "KEEP", "Run", "apply_overrides", "CsvLog", "dataset_hash", "load_checkpoint",
-           "find_checkpoint", "read_log", "curve_png"]
+           "find_checkpoint", "training_summary", "read_log", "curve_png"]

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import json
 from collections import deque
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -181,7 +181,8 @@ class GoalFinetune:
 
 def train(dataset: str | Path, run, cfg: Mapping[str, Any], digest: str, *, seed: int = 0,
           device: str = "cpu", minutes: float | None = DEFAULT_MINUTES,
-          threads: int = 1) -> dict[str, Any]:
+          threads: int = 1, progress: Callable[[str, int, int], None] | None = None
+          ) -> dict[str, Any]:
     """Train (or go on training) SAVi on ``dataset`` (module docstring)."""
     from fallgen.dataset.reader import Dataset
     from fallgen.learn.runtime import isolated_rng, resolve_device, session
@@ -216,7 +217,8 @@ def train(dataset: str | Path, run, cfg: Mapping[str, Any], digest: str, *, seed
                         minutes=minutes, threads=threads,
                         env_kwargs={"reward": "paper", "sensors": TRAIN_SENSORS,
                                     "wrapper": memory_wrapper(int(cfg["memory"]))},
-                        extra_state=extra_state, load_extra=load_extra, on_update=fine)
+                        extra_state=extra_state, load_extra=load_extra, on_update=fine,
+                        progress=progress)
 
 
 class SaviAgent:

@@ -71,15 +71,19 @@ class LoopCallback(BaseCallback):
     def __init__(self, run: Run, log: CsvLog, save: Callable[["LoopCallback"], None],
                  every: int, deadline: float, update: int, wall_s: float,
                  window: list[dict[str, float]], episodes: int, title: str,
-                 on_update: Callable[[Any], dict[str, float]] | None = None) -> None:
+                 on_update: Callable[[Any], dict[str, float]] | None = None,
+                 progress: Callable[[str, int, int], None] | None = None,
+                 total: int = 0) -> None:
         """``on_update(model)``: called at each rollout's end (the rollout in the model's
-        buffer, before the update); what it returns goes into the update's row."""
+        buffer, before the update); what it returns goes into the update's row.
+        ``progress("timesteps", done, total)`` after each update."""
         super().__init__()
         self.run, self.log, self.save_fn, self.every = run, log, save, max(1, int(every))
         self.deadline, self.update, self.wall_s0 = deadline, int(update), float(wall_s)
         self.window: deque[dict[str, float]] = deque(window, maxlen=WINDOW)
         self.episodes = int(episodes)
         self.title, self.on_update = title, on_update
+        self.progress, self.total = progress, int(total)
         self.stopped = False
         self._first = True
         self._t0 = time.monotonic()
@@ -121,6 +125,8 @@ class LoopCallback(BaseCallback):
         row.update(self._from_rollout)
         self._from_rollout = {}
         self.log.append(row)
+        if self.progress is not None:
+            self.progress("timesteps", int(self.model.num_timesteps), self.total)
         if self.update % self.every == 0 or time.monotonic() >= self.deadline:
             self.checkpoint()
 
@@ -168,9 +174,11 @@ def train_on_env(kind: str, dataset: str | Path, run: Run, cfg: Mapping[str, Any
                  extra_state: Callable[[Any], dict] | None = None,
                  load_extra: Callable[[Any, dict], None] | None = None,
                  on_update: Callable[[Any], dict[str, float]] | None = None,
-                 wrap_venv: Callable[[Any], Any] | None = None) -> dict[str, Any]:
+                 wrap_venv: Callable[[Any], Any] | None = None,
+                 progress: Callable[[str, int, int], None] | None = None) -> dict[str, Any]:
     """Train (or go on training) the run's model on ``dataset`` (module docstring); what the
-    run reached: updates, timesteps, wall seconds, the last checkpoint."""
+    run reached: updates, timesteps, wall seconds, the last checkpoint.
+    ``progress(step, done, total)`` after each update."""
     from fallgen.learn.runtime import resolve_device
     from fallgen.policies.vec import Sb3VecEnv, training_envs
 
@@ -214,7 +222,7 @@ def train_on_env(kind: str, dataset: str | Path, run: Run, cfg: Mapping[str, Any
                               float(ck["wall_s"]) if ck else 0.0,
                               list(ck["window"]) if ck else [],
                               int(ck["episodes"]) if ck else 0, f"{kind} on {dataset}",
-                              on_update)
+                              on_update, progress, int(cfg["timesteps"]))
             remaining = int(cfg["timesteps"]) - model.num_timesteps
             if remaining > 0:
                 model.learn(remaining, callback=cb, reset_num_timesteps=False)
