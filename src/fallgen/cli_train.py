@@ -5,11 +5,14 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Any, Optional
+from typing import TYPE_CHECKING, Annotated, Any, Optional
 
 import typer
 
 from fallgen.errors import InputError
+
+if TYPE_CHECKING:
+    from fallgen.evaluation.table_policies import PolicyRun
 
 #: Settings a resumed run may be given anew (the budget, how often it checkpoints, how many
 #: environment workers); any other differing from the run's is refused.
@@ -156,7 +159,7 @@ def register(app: typer.Typer, console) -> None:
                       highlight=False, soft_wrap=True)
 
 
-def policy_runs(dataset: Path, specs: list[str]) -> list:
+def policy_runs(dataset: Path, specs: list[str]) -> list[PolicyRun]:
     """``fallgen table --policy KIND=RUN``: the runs' last checkpoints (or the checkpoint files
     given) as :class:`fallgen.evaluation.table_policies.PolicyRun`, each checked to be of its
     kind and made on ``dataset``; InputError (one line) otherwise, before any work."""

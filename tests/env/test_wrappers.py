@@ -67,7 +67,8 @@ def test_compact_observations_are_the_environments_own_made_small(tiny_dataset):
             metres = np.minimum(r["depth"], 10.0).mean()
             assert abs(c["depth"].mean() * 10.0 / 255 - metres) < 10.0 / 255
             cats = set(np.unique(r["category_seg"]) + 1)
-            assert set(np.unique(c["category_seg"])) <= cats and len(cats) > 1
+            # every category in view is in the compact view (none is lost to the reduction)
+            assert set(np.unique(c["category_seg"])) == cats and len(cats) > 1
             sr = int(raw.ds.row(eid)["sample_rate"])
             assert np.array_equal(c["audio"], log_mel(r["audio"], sr))
             assert c["audio"].max() > 0.1
@@ -137,3 +138,46 @@ def test_a_few_ppo_updates(tiny_dataset):
         assert sum(p.numel() for p in after) < 5_000_000
     finally:
         env.close()
+
+
+def _rarest_by_blocks(labels: np.ndarray, size: int) -> np.ndarray:
+    """The reduction written out cell by cell: the label of the block with the fewest pixels
+    in the whole image (ties: the smaller; 0 only when nothing else is there)."""
+    h, w = labels.shape
+    counts = {int(v): int((labels == v).sum()) for v in np.unique(labels)}
+    out = np.zeros((size, size), np.uint8)
+    for i in range(size):
+        for j in range(size):
+            block = labels[i * h // size:(i + 1) * h // size, j * w // size:(j + 1) * w // size]
+            present = sorted({int(v) for v in np.unique(block)} - {0},
+                             key=lambda v: (counts[v], v))
+            out[i, j] = present[0] if present else 0
+    return out
+
+
+def test_the_segmentation_keeps_small_objects_and_is_the_rarest_label_per_block():
+    """The compact segmentation against the rule written out block by block, on random label
+    images of a few large regions with small objects on them; a one-pixel object anywhere
+    shows (the nearest pixel misses most), and a view of nothing but 0 stays 0."""
+    from fallgen.env.wrappers import rarest_label_resize
+
+    rng = np.random.default_rng(3)
+    for trial in range(6):
+        img = np.repeat(np.repeat(rng.integers(1, 5, (6, 6)), 50, 0), 50, 1).astype(np.uint8)
+        img[rng.random((300, 300)) < 0.02] = 0  # holes of nothing
+        for k in range(8):  # small objects, 1 to 6 pixels a side
+            y, x, a = rng.integers(0, 294), rng.integers(0, 294), rng.integers(1, 7)
+            img[y:y + a, x:x + a] = 10 + k
+        got = rarest_label_resize(img, 84)
+        assert np.array_equal(got, _rarest_by_blocks(img, 84)), trial
+        assert set(np.unique(img)) - {0} == set(np.unique(got)) - {0}  # every label shows
+    missed = 0
+    for y, x in rng.integers(0, 300, (40, 2)):
+        img = np.full((300, 300), 3, np.uint8)
+        img[y, x] = 7
+        assert (rarest_label_resize(img, 84) == 7).sum() == 1
+        missed += not (img[(np.arange(84) * 300 + 150) // 84][:, (np.arange(84) * 300 + 150)
+                                                             // 84] == 7).any()
+    assert missed > 30  # the nearest pixel would have lost most of them
+    assert not rarest_label_resize(np.zeros((300, 300), np.uint8), 84).any()
+

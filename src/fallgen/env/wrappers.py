@@ -15,8 +15,12 @@ the segmentation (1.8 steps a second, 2 GB). :class:`CompactObservation` gives:
   -40 dB mapped to 0..1 (the smoke build's bands lie between -145 and -55 dB). With
   ``hold_audio`` (default) the step-0 clip's features are kept for the whole episode (the fall
   is heard once; a policy without memory would otherwise forget it after the first step);
-- ``category_seg``: (size, size, 1) uint8, the category index + 1 (0: nothing), nearest
-  pixel, where the environment gives it;
+- ``category_seg``: (size, size, 1) uint8, the category index + 1 (0: nothing), where the
+  environment gives it: each cell (the view cut into size x size blocks of 3 or 4 pixels a
+  side) holds the rarest category it covers, the one with the fewest pixels in the whole view
+  (:func:`rarest_label_resize`), so an object of a few pixels survives the reduction (the
+  nearest pixel lost the fallen object in a third of the expert's claim views, where it shows
+  13 pixels at the median);
 - ``pose``, ``object_category``, ``object_position``, ``expert_action``: as they are.
 
 Images are 8-bit with bounds 0..255 and channels last, so Stable-Baselines3's ``check_env``
@@ -104,6 +108,31 @@ def log_mel(clip: np.ndarray, sample_rate: int, bands: int = BANDS) -> np.ndarra
     return np.clip((db - DB_FLOOR) / (DB_CEIL - DB_FLOOR), 0.0, 1.0).astype(np.float32).ravel()
 
 
+def _block_starts(n: int, size: int) -> np.ndarray:
+    """The first source index of each of ``size`` blocks that cut ``n`` indices evenly."""
+    return (np.arange(size) * n) // size
+
+
+def rarest_label_resize(labels: np.ndarray, size: int) -> np.ndarray:
+    """(H, W) uint8 labels -> (size, size): each output cell, a block of the partition of the
+    image into size x size blocks (``floor(i H / size)`` to ``floor((i + 1) H / size)``),
+    holds the label of its block that has the fewest pixels in the whole image (ties: the
+    smaller label); label 0 (nothing) only where a block holds nothing else. Every source
+    pixel lies in one block, so a label that shows anywhere shows in the output."""
+    h, w = labels.shape
+    if h < size or w < size:
+        raise ValueError(f"labels {h} x {w}: smaller than the output's {size}")
+    counts = np.bincount(labels.ravel(), minlength=256).astype(np.int64)
+    counts[0] = h * w + 1  # nothing loses to any label
+    order = np.lexsort((np.arange(256), counts))  # rank -> label, rarest first
+    rank = np.empty(256, np.uint8)
+    rank[order] = np.arange(256, dtype=np.uint8)
+    r = rank[labels]
+    r = np.minimum.reduceat(r, _block_starts(h, size), axis=0)
+    r = np.minimum.reduceat(r, _block_starts(w, size), axis=1)
+    return order[r].astype(np.uint8)
+
+
 class Compactor:
     """The conversion :class:`CompactObservation` applies, without an environment: for an agent
     that is handed the environment's own observations (``fallgen evaluate``) and must see
@@ -144,9 +173,8 @@ class Compactor:
         self.spaces = out
         self._held: np.ndarray | None = None
 
-    def _image(self, a: np.ndarray, nearest: bool = False) -> np.ndarray:
-        r = cv2.resize(a, (self.size, self.size),
-                       interpolation=cv2.INTER_NEAREST if nearest else cv2.INTER_AREA)
+    def _image(self, a: np.ndarray) -> np.ndarray:
+        r = cv2.resize(a, (self.size, self.size), interpolation=cv2.INTER_AREA)
         return r if r.ndim == 3 else r[..., None]
 
     def _audio(self, clip: np.ndarray, first: bool) -> np.ndarray:
@@ -168,7 +196,8 @@ class Compactor:
                 d = self._image(d)[..., 0] / self.depth_max_m * 255.0
                 out[k] = np.rint(d).astype(np.uint8)[..., None]
             elif k == "category_seg":
-                out[k] = self._image((v[..., 0] + 1).astype(np.uint8), nearest=True)
+                out[k] = rarest_label_resize((v[..., 0] + 1).astype(np.uint8),
+                                             self.size)[..., None]
             elif k == "audio":
                 out[k] = self._audio(v, first)
             else:
@@ -228,5 +257,5 @@ def compact_env(dataset: str | Path, split: str | None = None, *, size: int = SI
     return CompactObservation(env, size, depth_max_m, bands, hold_audio)
 
 
-__all__ = ["CompactObservation", "Compactor", "compact_env", "log_mel", "band_power",
-           "mel_filters", "SIZE", "DEPTH_MAX_M", "BANDS", "DB_FLOOR", "DB_CEIL"]
+__all__ = ["CompactObservation", "Compactor", "compact_env", "rarest_label_resize", "log_mel",
+           "band_power", "mel_filters", "SIZE", "DEPTH_MAX_M", "BANDS", "DB_FLOOR", "DB_CEIL"]

@@ -26,7 +26,7 @@ from fallgen.errors import InputError
 from fallgen.policies import SENSORS
 
 IMAGE_SHAPES = {"rgb": (84, 84, 3), "depth": (84, 84, 1), "category_seg": (84, 84, 1)}
-CACHE_FORMAT = "fallgen-dt-cache/1"
+CACHE_FORMAT = "fallgen-dt-cache/2"
 #: the spawn key of the generator that draws the exported episodes (``episodes`` > 0)
 EXPORT_SALT = 7
 

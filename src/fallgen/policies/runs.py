@@ -27,7 +27,7 @@ import numpy as np
 
 from fallgen.errors import InputError
 
-FORMAT = "fallgen-policy/1"
+FORMAT = "fallgen-policy/2"
 #: Checkpoints kept (the newest).
 KEEP = 3
 
