@@ -240,6 +240,8 @@ torch.set_num_threads({threads})
 env = compact_env({str(dataset)!r}, "train", sensors=("rgb", "depth", "audio", "pose"),
                   order="shuffle")
 model = PPO("MultiInputPolicy", env, n_steps=256, seed=0, device="cpu")
+from stable_baselines3.common.logger import Logger
+model.set_logger(Logger(None, []))  # no SB3-* log directory in the temp dir
 t = time.perf_counter()
 model.learn({steps})
 dt = time.perf_counter() - t

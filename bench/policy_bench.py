@@ -76,6 +76,7 @@ def bare(dataset: Path, steps: int) -> dict:
 def in_rollout(dataset: Path, envs: int, steps: int, n_steps: int) -> dict:
     import torch
     from stable_baselines3.common.callbacks import BaseCallback
+    from stable_baselines3.common.logger import Logger
 
     from fallgen.policies import ppo
     from fallgen.learn.runtime import isolated_rng, session
@@ -103,6 +104,7 @@ def in_rollout(dataset: Path, envs: int, steps: int, n_steps: int) -> dict:
                                        reward="paper", wrapper=StepTimer), ppo.N_MOVES)
         try:
             model = ppo.make_model(cfg, venv, torch.device("cpu"))
+            model.set_logger(Logger(None, []))  # no SB3-* log directory in the temp dir
             timer = Timer()
             t = time.perf_counter()
             model.learn(steps * max(envs, 1), callback=timer)

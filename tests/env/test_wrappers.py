@@ -123,6 +123,8 @@ def test_a_few_ppo_updates(tiny_dataset):
     import torch
     from stable_baselines3 import PPO
 
+    from stable_baselines3.common.logger import Logger
+
     from fallgen.env.wrappers import compact_env
 
     env = compact_env(tiny_dataset, "train", sensors=("rgb", "depth", "audio", "pose"),
@@ -130,6 +132,7 @@ def test_a_few_ppo_updates(tiny_dataset):
     try:
         model = PPO("MultiInputPolicy", env, n_steps=32, batch_size=16, n_epochs=2, seed=0,
                     device="cpu")
+        model.set_logger(Logger(None, []))  # no log directory of its own in the temp dir
         before = [p.detach().clone() for p in model.policy.parameters()]
         model.learn(64)
         assert model.num_timesteps == 64 and model._n_updates == 4
