@@ -367,16 +367,13 @@ def register(app: typer.Typer, console: Console) -> None:
             "--data-dir", help="World data the dataset was built with (default: built-in).",
             show_default=False)] = None,
     ) -> None:
-        """The paper's Table 1 (random, the learned policies given, Object-Goal, the modular agent with the learned audio
-        and visual modules and the paper's oracle ablations, the expert) and Table 2 (the
-        audio module learned on one room kind, tested on the other) with 95 % intervals,
-        into OUT/table.md; reruns keep what is done."""
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, \
-            TimeElapsedColumn
-
-        from fallgen.evaluation.table import make_table
-
+        """The paper's Table 1 (random, the learned policies given, Object-Goal, the modular
+        agent with the learned audio and visual modules and the paper's oracle ablations, the
+        expert) and Table 2 (the audio module learned on one room kind, tested on the other)
+        with 95 % intervals, into OUT/table.md; reruns keep what is done."""
+        from fallgen.cli_common import step_bars
         from fallgen.cli_train import policy_runs
+        from fallgen.evaluation.table import make_table
 
         _open(dataset)
         policies = policy_runs(dataset, list(policy or []))
@@ -386,15 +383,7 @@ def register(app: typer.Typer, console: Console) -> None:
             device = device_name(device)
         elif vision_model is not None:
             raise InputError("<command line>", "--vision-model", "not with --no-vision")
-        with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
-                      TimeElapsedColumn(), console=console) as bar:
-            tasks: dict[str, int] = {}
-
-            def progress(step: str, done: int, total: int) -> None:
-                if step not in tasks:
-                    tasks[step] = bar.add_task(step, total=total)
-                bar.update(tasks[step], completed=done, description=step)
-
+        with step_bars(console) as progress:
             try:
                 run = make_table(dataset, out, episodes=episodes, cross_episodes=cross_episodes,
                                  workers=workers or (os.cpu_count() or 1), seed=seed,

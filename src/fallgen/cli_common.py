@@ -4,6 +4,8 @@ options, and a few one-line helpers (the world, room variants, worker counts, a 
 from __future__ import annotations
 
 import os
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -56,6 +58,26 @@ def open_dataset(dataset: Path):
         return fallgen.dataset.open(dataset)
     except FileNotFoundError as e:
         raise InputError(dataset, "data/", str(e).split(": ", 1)[-1]) from None
+
+
+@contextmanager
+def step_bars(out: Console) -> Iterator[Callable[[str, int, int], None]]:
+    """A progress bar per named step, drawn on ``out`` while the block runs: yields the
+    ``progress(step, done, total)`` callback the library's long jobs take (a step's bar is
+    made at its first call)."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, \
+        TimeElapsedColumn
+
+    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                  TimeElapsedColumn(), console=out) as bar:
+        tasks: dict[str, int] = {}
+
+        def progress(step: str, done: int, total: int) -> None:
+            if step not in tasks:
+                tasks[step] = bar.add_task(step, total=total)
+            bar.update(tasks[step], completed=done, total=total)
+
+        yield progress
 
 
 def note(line: str) -> None:

@@ -5,7 +5,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any, Optional
+from typing import TYPE_CHECKING, Annotated, Optional
 
 import typer
 
@@ -132,18 +132,9 @@ def register(app: typer.Typer, console) -> None:
                                  "(at most one worker an episode)")
         extra = {"expert": expert} if kind == "dt" else {}
         limit = minutes if minutes is not None else mod.DEFAULT_MINUTES
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, \
-            TimeElapsedColumn
+        from fallgen.cli_common import step_bars
 
-        with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
-                      TimeElapsedColumn(), console=console) as bar:
-            tasks: dict[str, Any] = {}
-
-            def progress(step: str, done: int, total: int) -> None:
-                if step not in tasks:
-                    tasks[step] = bar.add_task(step, total=total)
-                bar.update(tasks[step], completed=done, total=total)
-
+        with step_bars(console) as progress:
             try:
                 res = mod.train(dataset, run, config, digest, seed=seed, device=device,
                                 minutes=limit, threads=threads, progress=progress, **extra)

@@ -77,7 +77,7 @@ def policy_lines(runs: Sequence[PolicyRun], results: Mapping[str, dict]) -> list
         if s is None:
             continue
         t = r.training
-        out.append(f"{KINDS[r.kind]}: {budget(t)} on {t.get('device', 'cpu')}, "
+        out.append(f"{KINDS[r.kind]}: {budget(t)}, "
                    f"{int(t.get('updates', 0))} updates, checkpoint `{r.checkpoint.name}` "
                    f"(sha256 {r.sha256[:12]}); SR {s['success']:.3f}.")
     floor = results.get(RANDOM_ORACLE)

@@ -44,15 +44,13 @@ def expert_file(dataset: str | Path, digest: str, run_root: Path, given: str | P
     if given is None:
         path = run_root / "expert" / "expert.h5"
         if not path.exists():
-            from fallgen.env.source import select
             from fallgen.dataset.reader import Dataset
+            from fallgen.env.source import select
+            from fallgen.evaluation.table import subsample
             from fallgen.evaluation.trajectories import export_expert
 
-            from fallgen.learn.vision_jobs import subsample_rows
-
-            ids = select(Dataset(dataset), split, room_kind)
-            ids = [r["episode_id"] for r in subsample_rows(
-                [{"episode_id": i} for i in ids], episodes, seed, EXPORT_SALT)]
+            ids = subsample(select(Dataset(dataset), split, room_kind), episodes, seed,
+                            EXPORT_SALT)
             done = [0]
 
             def tick(n: int) -> None:
