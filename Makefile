@@ -9,7 +9,7 @@ export MUJOCO_GL ?= egl
 CONFIG ?= configs/full.toml
 WORKERS ?= $(shell nproc 2>/dev/null || echo 2)
 
-.PHONY: setup demo test test-fast bench bench-full loudness table report assets rehearse generate dataset smoke clean lint
+.PHONY: setup demo test test-fast bench bench-full loudness hrtf table report assets rehearse generate dataset smoke clean lint
 
 setup: $(VENV)/.fallgen-installed
 $(VENV)/.fallgen-installed: pyproject.toml scripts/setup.sh
@@ -72,6 +72,14 @@ bench-full: setup
 	$(PY) bench/full_build.py --workers $(WORKERS) --one-worker | tee build/bench-full.json
 	$(PY) bench/provenance.py build/bench-full.json make bench-full
 	$(PY) bench/report.py build
+
+## hrtf: the audio module on two builds that differ only in the head (the measured SADIE KU100
+## and the spherical model): azimuth error and front/back confusions side by side,
+## build/hrtf.json; ~30 min on 2 cores, ~4 GB of disk under build/hrtf.
+hrtf: setup
+	@mkdir -p build
+	$(PY) bench/hrtf_compare.py --workers $(WORKERS) --json build/hrtf.json > /dev/null
+	$(PY) bench/provenance.py build/hrtf.json make hrtf
 
 ## table: the paper's Table 1 and Table 2 on the paper-size build (made first when missing),
 ## with the learned audio module: build/table/table.md. TABLE_EPISODES per Table 1 row and

@@ -16,7 +16,8 @@ Sources, under ``--build``:
 - ``bench-full.json`` (``make bench-full``: the paper-size build, timed),
 - ``loudness.json`` (``make loudness``: floors under the tapping machine, reference drops),
 - ``full-stats.json`` (``make dataset``: ``fallgen stats build/full --json``),
-- ``table/table.json`` (``make table``: the paper's Table 1 and Table 2 on the build).
+- ``table/table.json`` (``make table``: the paper's Table 1 and Table 2 on the build),
+- ``hrtf.json`` (``make hrtf``: the audio module with the measured head and the spherical one).
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ SOURCES = {
     "loudness": ("loudness.json", "make loudness"),
     "stats": ("full-stats.json", "make dataset"),
     "table": ("table/table.json", "make table"),
+    "hrtf": ("hrtf.json", "make hrtf"),
 }
 BLOCK = re.compile(r"(?P<open><!-- generated: (?P<name>[\w-]+)[^\n]*?-->\n)(?P<body>.*?)"
                    r"(?P<close><!-- end: (?P=name) -->)", re.S)
@@ -348,6 +350,8 @@ AUDIO_SCORES = (("category, top-1", "category_top1", "{:.3f}"),
                 ("azimuth, median error", "azimuth_median_error_deg", "{:.1f} deg"),
                 ("lateral angle (front and back folded), median error",
                  "lateral_median_error_deg", "{:.1f} deg"),
+                ("front/back confusions (sources > 15 deg off the ears' axis)",
+                 "front_back_confusion_rate", "{:.3f}"),
                 ("position, median error", "position_median_error_m", "{:.2f} m"),
                 ("distance, rank correlation", "distance_rank_correlation", "{:.3f}"),
                 ("distance, rank correlation within a room (mean over room variants)",
@@ -366,6 +370,45 @@ def audio_module(src) -> str | None:
              fmt(a.get("chance", {}), key, f)] for label, key, f in AUDIO_SCORES]
     return (_table(["from the step-0 clip", "model", "prior (no audio)", "chance"], rows)
             + f"\n{a.get('episodes', '?')} test episodes.\n\n" + s.stamp())
+
+
+def hrtf_heads(src) -> str | None:
+    """The audio module trained and scored on two builds that differ only in the head."""
+    s = src["hrtf"]
+    d = s.data if s.present else None
+    if not d or not d.get("heads"):
+        return None
+    heads = d["heads"]
+    kinds = sorted({k for h in heads.values() for k in h.get("by_room_kind", {})})
+    rows = []
+    for label, key, f in (("azimuth, median error", "azimuth_median_error_deg", "{:.1f} deg"),
+                          ("lateral angle, median error", "lateral_median_error_deg",
+                           "{:.1f} deg"),
+                          ("front/back confusion rate", "front_back_confusion_rate", "{:.3f}")):
+        for part in (None, *kinds):
+            cells = []
+            for h in ("sadie_ku100", "sphere"):
+                v = heads.get(h, {})
+                v = v if part is None else v.get("by_room_kind", {}).get(part, {})
+                cells.append(_f(v.get(key), f))
+            rows.append([label + (f", {part}" if part else ""), *cells])
+    diff = d.get("sadie_minus_sphere", {})
+    lines = []
+    for key, name, f in (("azimuth_median_error_deg", "median azimuth error", "{:+.1f} deg"),
+                         ("front_back_confusion_rate", "front/back confusion rate",
+                          "{:+.3f}")):
+        x = diff.get(key)
+        if x:
+            lo, hi = x["ci95"]
+            lines.append(f"{name} {f.format(x['difference'])} "
+                         f"[{f.format(lo)}, {f.format(hi)}]")
+    eps = d.get("episodes", {})
+    return (_table(["the audio module, on the same test episodes", "SADIE KU100 (measured)",
+                    "spherical head"], rows)
+            + f"\n{d.get('common_test_episodes', '?')} test episodes in both builds "
+              f"({eps.get('train', '?')} train episodes each, config `{d.get('config', '?')}`, "
+              f"seed {d.get('seed', '?')}). Measured minus sphere, paired, with 95 % bootstrap "
+              "intervals: " + "; ".join(lines) + ".\n\n" + s.stamp())
 
 
 def full_build(src) -> str | None:
@@ -486,7 +529,7 @@ RENDERERS: dict[str, Callable[[dict], str | None]] = {
     "floors": floors, "drops": drops, "rt60": rt60, "appearance": appearance,
     "table1": table1, "table2": table2, "audio-module": audio_module,
     "vision-module": vision_module,
-    "full-build": full_build, "benches": benches,
+    "full-build": full_build, "benches": benches, "hrtf-heads": hrtf_heads,
 }
 
 
@@ -523,7 +566,7 @@ def _needs(block: str) -> tuple[str, ...]:
             "floors": ("loudness",), "drops": ("loudness",), "appearance": ("bench",),
             "benches": ("bench",), "table1": ("table",), "table2": ("table",),
             "audio-module": ("table",), "vision-module": ("table",),
-            "full-build": ("bench_full",)}.get(block, ())
+            "full-build": ("bench_full",), "hrtf-heads": ("hrtf",)}.get(block, ())
 
 
 def main(argv: list[str] | None = None) -> None:

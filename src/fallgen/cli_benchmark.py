@@ -495,6 +495,7 @@ def register(app: typer.Typer, console: Console) -> None:
         for key, fmt in (("category_top1", "{:.3f}"), ("category_top5", "{:.3f}"),
                          ("material_top1", "{:.3f}"), ("azimuth_median_error_deg", "{:.1f}"),
                          ("lateral_median_error_deg", "{:.1f}"),
+                         ("front_back_confusion_rate", "{:.3f}"),
                          ("distance_rank_correlation", "{:.3f}"),
                          ("distance_rank_correlation_within_room", "{:.3f}")):
             cells = [scores.get(key), scores["prior"].get(key), scores["chance"].get(key)]

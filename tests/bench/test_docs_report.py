@@ -113,6 +113,20 @@ BENCH = {"headline": {}, "benchmarks": {
                "speedup_vs_pyimpact_audio_second": 10.0},
 }}
 
+HRTF = {"config": "configs/full.toml", "episodes": {"train": 1500, "validation": 100,
+                                                    "test": 500},
+        "seed": 0, "common_test_episodes": 498,
+        "heads": {"sadie_ku100": {"azimuth_median_error_deg": 11.04,
+                                  "lateral_median_error_deg": 6.5,
+                                  "front_back_confusion_rate": 0.1234,
+                                  "by_room_kind": {"kitchen": {"front_back_confusion_rate": 0.1}}},
+                  "sphere": {"azimuth_median_error_deg": 19.0, "lateral_median_error_deg": 6.9,
+                             "front_back_confusion_rate": 0.3456,
+                             "by_room_kind": {"kitchen": {"front_back_confusion_rate": 0.3}}}},
+        "sadie_minus_sphere": {
+            "azimuth_median_error_deg": {"difference": -7.96, "ci95": [-9.5, -6.1]},
+            "front_back_confusion_rate": {"difference": -0.2222, "ci95": [-0.28, -0.17]}}}
+
 DOC = """# A page
 
 Text before.
@@ -153,6 +167,7 @@ def _all_sources(build: Path) -> None:
     _write(build, "bench-full.json", FULL, "make bench-full", "2026-11-27 09:00 UTC")
     _write(build, "loudness.json", LOUDNESS, "make loudness", "2026-11-27 08:00 UTC")
     _write(build, "bench.json", BENCH, "make bench", "2026-11-27 07:00 UTC")
+    _write(build, "hrtf.json", HRTF, "make hrtf", "2026-11-27 06:00 UTC")
 
 
 def test_every_block_is_written_from_its_json_with_date_machine_and_command(tree, capsys):
@@ -193,6 +208,12 @@ def test_every_block_is_written_from_its_json_with_date_machine_and_command(tree
     assert "| glass | 8000 | 2.5e-05 | 88 | 121 |" in _block(root, "energy-by-material")
     assert "| textured | 0.498 | 0.317 | 11.3 | 3.4 | 18.8 |" in _block(root, "appearance")
     assert "1.97x, same bytes: yes" in _block(root, "full-build")
+    heads = _block(root, "hrtf-heads")
+    assert "| front/back confusion rate | 0.123 | 0.346 |" in heads
+    assert "| front/back confusion rate, kitchen | 0.100 | 0.300 |" in heads
+    assert "| azimuth, median error | 11.0 deg | 19.0 deg |" in heads
+    assert "front/back confusion rate -0.222 [-0.280, -0.170]" in heads
+    assert "498 test episodes in both builds (1500 train episodes each" in heads
     assert "311.0 / 169.0: 1.84x" in _block(root, "benches")
     assert "`fallgen.dataset.schema`" in _block(root, "schema-columns")
     assert "| `episode_id` | int64 |" in _block(root, "schema-columns")

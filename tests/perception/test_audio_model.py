@@ -113,6 +113,23 @@ def test_relative_place():
     assert az == pytest.approx(-math.pi / 4)  # heading north, the object north-east: right
 
 
+def test_front_back_confusions_by_hand():
+    """A reversal is an estimate across the ears' axis from the truth (front for back);
+    sources within 15 degrees of the axis are not counted; the mirror image of every
+    estimate about the axis (pi - azimuth) is a reversal wherever one is counted."""
+    from fallgen.perception.audio_model import front_back_confusions
+
+    deg = np.radians
+    true = deg(np.array([0.0, 0.0, 30.0, 170.0, 85.0, -100.0, -60.0]))
+    est = deg(np.array([170.0, 80.0, 150.0, -175.0, 95.0, -80.0, -60.0]))
+    # counted: all but 85 (5 degrees off the axis) and -100 (10 degrees off it)
+    # reversals: 0 -> 170, 30 -> 150; not: 0 -> 80, 170 -> -175, -60 -> -60
+    assert front_back_confusions(est, true) == (2, 5)
+    wrong, n = front_back_confusions(np.pi - true, true)
+    assert wrong == n == 5
+    assert front_back_confusions(true, true) == (0, 5)
+
+
 def _truth_place(row: dict, where=None) -> tuple[float, float]:
     """Azimuth (rad, counter-clockwise from the spawn heading) and distance (m) of ``where``
     (default: where the object came to rest) from the agent's spawn, written out here."""
@@ -157,6 +174,19 @@ def _check_scores(scores, model, ds, rows, train_rows, world):
         assert lo - 1e-9 <= scores[key] <= hi + 1e-9, (key, scores[key], lo, hi)
     az = [_angle_deg(p.azimuth_rad, _truth_place(r)[0]) for p, r in zip(preds, rows)]
     assert scores["azimuth_median_error_deg"] == pytest.approx(float(np.median(az)), abs=1e-6)
+    # front/back: the estimate ahead of the ears' axis where the truth is behind it, or the
+    # other way round, over the sources more than 15 degrees off that axis
+    counted = [(p, r) for p, r in zip(preds, rows)
+               if abs(math.cos(_truth_place(r)[0])) >= math.sin(math.radians(15))]
+    flips = [(math.cos(p.azimuth_rad) > 0) != (math.cos(_truth_place(r)[0]) > 0)
+             for p, r in counted]
+    if counted:
+        assert scores["front_back_confusion_rate"] == pytest.approx(float(np.mean(flips)))
+    for kind in {r["room_kind"] for r in rows}:
+        mine = [a for a, r in zip(az, rows) if r["room_kind"] == kind]
+        assert scores["by_room_kind"][kind]["episodes"] == len(mine)
+        assert scores["by_room_kind"][kind]["azimuth_median_error_deg"] == \
+            pytest.approx(float(np.median(mine)), abs=1e-6)
     prior = scores["prior"]
     for key, field in (("category_top1", "category"), ("material_top1", "audio_material")):
         counts = Counter(r[field] for r in train_rows)

@@ -284,6 +284,27 @@ def _lateral_error_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.degrees(np.abs(np.arcsin(np.sin(a)) - np.arcsin(np.sin(b))))
 
 
+#: Sources closer than this to the interaural axis (azimuth +-90 degrees) are left out of the
+#: front/back confusion rate: at the axis front and back are the same place.
+FRONT_BACK_MARGIN_DEG = 15.0
+
+
+def front_back_confusions(est: np.ndarray, true: np.ndarray) -> tuple[int, int]:
+    """(confusions, sources counted): a confusion is an estimated azimuth (rad) on the other
+    side of the interaural axis (front against back: the cosine's sign) than the true one,
+    counted over the sources at least :data:`FRONT_BACK_MARGIN_DEG` from that axis (the usual
+    rule of localisation studies, e.g. Wenzel et al. 1993, which leave out a cone about the
+    axis where a reversal is not defined)."""
+    keep = np.abs(np.cos(true)) >= math.sin(math.radians(FRONT_BACK_MARGIN_DEG))
+    wrong = np.sign(np.cos(est[keep])) != np.sign(np.cos(true[keep]))
+    return int(wrong.sum()), int(keep.sum())
+
+
+def _front_back_rate(est: np.ndarray, true: np.ndarray) -> float:
+    wrong, n = front_back_confusions(est, true)
+    return wrong / n if n else float("nan")
+
+
 def _topk(p: np.ndarray, classes: Sequence[str], truth: Sequence[str], k: int) -> float:
     order = np.argsort(-p, axis=1)[:, :k]
     names = np.asarray(classes)[order]
@@ -354,13 +375,15 @@ def evaluate(model: AudioModel, ds, rows: Sequence[dict], train_rows: Sequence[d
         "material_top1": _topk(mp, mats, truth_m, 1),
         "azimuth_median_error_deg": float(np.median(az_err)),
         "lateral_median_error_deg": float(np.median(lat_err)),
+        "front_back_confusion_rate": _front_back_rate(place[:, 0], true_place[:, 0]),
         "distance_rank_correlation": _spearman(place[:, 1], true_place[:, 1]),
         "distance_rank_correlation_within_room": _within_room(rows, place[:, 1],
                                                               true_place[:, 1]),
         "position_median_error_m": float(np.median(pos_err)),
         "chance": {"category_top1": 1 / max(len(cats), 1), "category_top5":
                    min(5, len(cats)) / max(len(cats), 1), "material_top1": 1 / max(len(mats), 1),
-                   "azimuth_median_error_deg": 90.0, "lateral_median_error_deg": 30.0},
+                   "azimuth_median_error_deg": 90.0, "lateral_median_error_deg": 30.0,
+                   "front_back_confusion_rate": 0.5},
         "prior": {
             "category_top1": float(np.mean([t in freq_c[:1] for t in truth_c])),
             "category_top5": float(np.mean([t in freq_c[:5] for t in truth_c])),
@@ -368,6 +391,7 @@ def evaluate(model: AudioModel, ds, rows: Sequence[dict], train_rows: Sequence[d
             "azimuth_median_error_deg": float(np.median(prior_az)),
             "lateral_median_error_deg": float(np.median(_lateral_error_deg(
                 prior[:, 0], true_place[:, 0]))),
+            "front_back_confusion_rate": _front_back_rate(prior[:, 0], true_place[:, 0]),
             "distance_rank_correlation": _spearman(prior[:, 1], true_place[:, 1]),
             "distance_rank_correlation_within_room": _within_room(rows, prior[:, 1],
                                                                   true_place[:, 1]),
@@ -379,6 +403,14 @@ def evaluate(model: AudioModel, ds, rows: Sequence[dict], train_rows: Sequence[d
         k = np.array([r["zone_kind"] == z for r in rows])
         by_zone[z] = {"episodes": int(k.sum()), "category_top1": float(top1[k].mean()),
                       "azimuth_median_error_deg": float(np.median(az_err[k]))}
+    by_room_kind: dict[str, dict] = {}
+    for kind in sorted({r["room_kind"] for r in rows}):
+        k = np.array([r["room_kind"] == kind for r in rows])
+        by_room_kind[kind] = {
+            "episodes": int(k.sum()), "category_top1": float(top1[k].mean()),
+            "azimuth_median_error_deg": float(np.median(az_err[k])),
+            "lateral_median_error_deg": float(np.median(lat_err[k])),
+            "front_back_confusion_rate": _front_back_rate(place[k, 0], true_place[k, 0])}
     by_distance: dict[str, dict] = {}
     for lo, hi in zip(DISTANCE_BINS_M[:-1], DISTANCE_BINS_M[1:]):
         k = (true_place[:, 1] >= lo) & (true_place[:, 1] < hi)
@@ -387,6 +419,7 @@ def evaluate(model: AudioModel, ds, rows: Sequence[dict], train_rows: Sequence[d
                 "episodes": int(k.sum()), "category_top1": float(top1[k].mean()),
                 "azimuth_median_error_deg": float(np.median(az_err[k]))}
     scores["by_zone_kind"] = by_zone
+    scores["by_room_kind"] = by_room_kind
     scores["by_distance"] = by_distance
     confusion = {"category": _confusion(truth_c, np.asarray(cats)[np.argmax(cp, axis=1)], cats),
                  "material": _confusion(truth_m, np.asarray(mats)[np.argmax(mp, axis=1)], mats)}
