@@ -367,7 +367,8 @@ def audio_module(src) -> str | None:
         return None
     fmt = lambda d, k, f: "-" if d.get(k) is None else f.format(d[k])  # noqa: E731
     rows = [[label, f"**{fmt(a, key, f)}**", fmt(a.get("prior", {}), key, f),
-             fmt(a.get("chance", {}), key, f)] for label, key, f in AUDIO_SCORES]
+             fmt(a.get("chance", {}), key, f)] for label, key, f in AUDIO_SCORES
+            if a.get(key) is not None]  # a score an older table.json does not have
     return (_table(["from the step-0 clip", "model", "prior (no audio)", "chance"], rows)
             + f"\n{a.get('episodes', '?')} test episodes.\n\n" + s.stamp())
 
@@ -516,8 +517,9 @@ def vision_module(src) -> str | None:
         rows.append(["training", f"{(t.get('frames_seconds') or 0) / 60:.1f} min drawing "
                      f"{t.get('train_frames')} frames of {t.get('train_episodes')} train "
                      f"episodes, {(t.get('train_seconds') or 0) / 60:.1f} min training",
-                     f"on {t.get('device', 'cpu')}, "
-                     f"{(t.get('settings') or {}).get('epochs', '?')} epochs"])
+                     f"on {t.get('device', 'cpu')}" + (
+                         f", {t['settings']['epochs']} epochs"
+                         if (t.get("settings") or {}).get("epochs") else "")])
     return (_table(["the visual module", "measured", "over"], rows)
             + f"\n{v['episodes']} test episodes.\n\n" + s.stamp())
 

@@ -168,6 +168,7 @@ def test_table_on_the_tiny_build(tiny_dataset, tmp_path, cli):
     assert {p: p.stat().st_mtime_ns for p in (out / "rows").rglob("summary.json")} == before
     assert json.loads((out / "table.json").read_text())["results"] == data["results"]
     assert "vision" in data and (out / "vision" / "strip.png").is_file()
+    assert data["vision_training"]["settings"]["epochs"] == 1  # what make report prints
     assert data["results"]["objectgoal"]["agent"] == "objectgoal+vision"
     # a different audio model (more trees) is made again, and the rows that use it run again
     # (those with the visual module are left out with --no-vision: their files stay as they

@@ -94,7 +94,7 @@ def vision_module(ds, out: Path, models: Path, sha: str, test_ids: Sequence[int]
             log(f"vision model: {model.meta['train_frames']} frames of {len(rows)} train "
                 f"episodes -> {path}")
     meta = {k: model.meta.get(k) for k in ("train_frames", "train_episodes", "frames_seconds",
-                                           "train_seconds", "loss", "device")}
+                                           "train_seconds", "loss", "device", "settings")}
     meta["margin"], meta["ask_margin"] = model.margin, model.ask_margin
     # the model's own time (drawing its frames and training), whether made now or kept
     timings = {"vision model": float(model.meta.get("frames_seconds") or 0.0)
