@@ -392,7 +392,9 @@ def hrtf_heads(src) -> str | None:
                 v = heads.get(h, {})
                 v = v if part is None else v.get("by_room_kind", {}).get(part, {})
                 cells.append(_f(v.get(key), f))
-            rows.append([label + (f", {part}" if part else ""), *cells])
+            prior = next(iter(heads.values())).get("prior", {}) if part is None else {}
+            rows.append([label + (f", {part}" if part else ""), *cells,
+                         _f(prior.get(key), f)])
     diff = d.get("sadie_minus_sphere", {})
     lines = []
     for key, name, f in (("azimuth_median_error_deg", "median azimuth error", "{:+.1f} deg"),
@@ -405,7 +407,7 @@ def hrtf_heads(src) -> str | None:
                          f"[{f.format(lo)}, {f.format(hi)}]")
     eps = d.get("episodes", {})
     return (_table(["the audio module, on the same test episodes", "SADIE KU100 (measured)",
-                    "spherical head"], rows)
+                    "spherical head", "room-centre prior (no audio)"], rows)
             + f"\n{d.get('common_test_episodes', '?')} test episodes in both builds "
               f"({eps.get('train', '?')} train episodes each, config `{d.get('config', '?')}`, "
               f"seed {d.get('seed', '?')}). Measured minus sphere, paired, with 95 % bootstrap "

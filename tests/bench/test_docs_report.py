@@ -119,6 +119,7 @@ HRTF = {"config": "configs/full.toml", "episodes": {"train": 1500, "validation":
         "heads": {"sadie_ku100": {"azimuth_median_error_deg": 11.04,
                                   "lateral_median_error_deg": 6.5,
                                   "front_back_confusion_rate": 0.1234,
+                                  "prior": {"front_back_confusion_rate": 0.19},
                                   "by_room_kind": {"kitchen": {"front_back_confusion_rate": 0.1}}},
                   "sphere": {"azimuth_median_error_deg": 19.0, "lateral_median_error_deg": 6.9,
                              "front_back_confusion_rate": 0.3456,
@@ -209,9 +210,9 @@ def test_every_block_is_written_from_its_json_with_date_machine_and_command(tree
     assert "| textured | 0.498 | 0.317 | 11.3 | 3.4 | 18.8 |" in _block(root, "appearance")
     assert "1.97x, same bytes: yes" in _block(root, "full-build")
     heads = _block(root, "hrtf-heads")
-    assert "| front/back confusion rate | 0.123 | 0.346 |" in heads
-    assert "| front/back confusion rate, kitchen | 0.100 | 0.300 |" in heads
-    assert "| azimuth, median error | 11.0 deg | 19.0 deg |" in heads
+    assert "| front/back confusion rate | 0.123 | 0.346 | 0.190 |" in heads
+    assert "| front/back confusion rate, kitchen | 0.100 | 0.300 | - |" in heads
+    assert "| azimuth, median error | 11.0 deg | 19.0 deg | - |" in heads
     assert "front/back confusion rate -0.222 [-0.280, -0.170]" in heads
     assert "498 test episodes in both builds (1500 train episodes each" in heads
     assert "311.0 / 169.0: 1.84x" in _block(root, "benches")
