@@ -8,11 +8,15 @@ found, +1 a step closer, -1 farther, -0.01 a step); the policy chooses among the
 (the ``found`` action is the oracle's). ``fallgen evaluate`` scores it the same way (the agent
 declares ``oracle_found``).
 
-Defaults, for 2 CPU cores (``fallgen train ppo``): 2 environment workers, 64-step rollouts
-each (128 steps an update), minibatches of 64, 4 epochs, LSTM of 256, a budget of
-:data:`DEFAULT_TIMESTEPS` steps in at most 3 h (:data:`DEFAULT_MINUTES`; at the ~13 steps/s
-the environment gives a CPU-rendered policy here, 3 h is ~140 k steps), a checkpoint every 10
-updates. The paper's scale on a GPU: ``--device cuda --set envs=16 --set n_steps=16
+Defaults, for 2 CPU cores (``fallgen train ppo``): 2 environment workers, 128-step rollouts
+each (256 steps an update), minibatches of 128, 4 epochs, LSTM of 256, discount 0.995 and GAE
+lambda 0.98, entropy bonus 0.02, a budget of :data:`DEFAULT_TIMESTEPS` steps in at most 3 h
+(:data:`DEFAULT_MINUTES`; at the ~13 steps/s the environment gives a CPU-rendered policy here,
+3 h is ~140 k steps), a checkpoint every 10 updates. The long discount and lambda carry the
+success's +10 back over a search that takes a random walk ~170 actions: with 0.99 and 0.95
+(and 64-step rollouts, one worker) a run on the paper-size build learned to stop moving, each
+move's immediate -1 outweighing a success credited only to its last ~20 actions; with these
+it did not (docs/policies.md). The paper's scale on a GPU: ``--device cuda --set envs=16 --set n_steps=16
 --set batch_size=128 --set timesteps=10000000`` on a machine with as many cores as
 environments (the paper: 16-step rollouts per update, Adam 2.5e-4; SoundSpaces' AV-Nav ran 10
 processes for ~10^7 steps).
@@ -44,8 +48,14 @@ DEFAULT_MINUTES = 180.0
 
 @dataclass
 class PpoSettings(OnPolicySettings):
-    """:class:`~fallgen.policies.sb3_loop.OnPolicySettings` and the LSTM's size."""
+    """:class:`~fallgen.policies.sb3_loop.OnPolicySettings` and the LSTM's size, with PPO's
+    own defaults for the credit of a late success (module docstring)."""
 
+    n_steps: int = 128
+    batch_size: int = 128
+    gamma: float = 0.995
+    gae_lambda: float = 0.98
+    ent_coef: float = 0.02
     lstm_hidden: int = 256
     timesteps: int = DEFAULT_TIMESTEPS
 

@@ -288,7 +288,7 @@ def curve_png(path: str | Path, rows: Sequence[Mapping[str, Any]], x: str,
         for v, yy in ((hi, y0 + 10), (lo, y1)):
             cv2.putText(img, f"{v:.3g}", (4, yy), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1,
                         cv2.LINE_AA)
-        cv2.putText(img, f"{x} {xl:.0f}..{xh:.0f}", (x1 - 200, y1 + 16),
+        cv2.putText(img, f"{x} {xl:.0f} to {xh:.0f}", (x1 - 220, y1 + 16),
                     cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
     return write_png(img, path)
 
