@@ -33,8 +33,9 @@ sys.path.insert(0, str(REPO / "src"))
 
 from fallgen.dataset.reader import Dataset  # noqa: E402
 from fallgen.perception.audio_features import relative_place  # noqa: E402
-from fallgen.perception.audio_model import (AudioModel, dataset_features, evaluate,  # noqa: E402
-                                             feature_matrix, front_back_confusions)
+from fallgen.perception.audio_model import (AudioModel, angle_error_deg,  # noqa: E402
+                                             dataset_features, evaluate, feature_matrix,
+                                             front_back_flips)
 
 HEADS = ("sadie_ku100", "sphere")
 #: The scores kept from each evaluation, overall and by room kind.
@@ -75,14 +76,19 @@ def _pick(scores: dict) -> dict:
     return out
 
 
-def _paired(a: np.ndarray, b: np.ndarray, stat, rng: np.random.Generator) -> dict:
-    """stat(a) - stat(b) over the same episodes, with a 95 % bootstrap interval (episodes
-    resampled in pairs)."""
-    n = len(a)
-    idx = rng.integers(0, n, (BOOTSTRAP, n))
-    d = np.array([stat(a[i]) - stat(b[i]) for i in idx])
-    return {"difference": float(stat(a) - stat(b)),
-            "ci95": [float(np.quantile(d, 0.025)), float(np.quantile(d, 0.975))]}
+def _paired(a: np.ndarray, b: np.ndarray, stat, seed: int) -> dict:
+    """stat(a) - stat(b) over the same episodes, with a 95 % percentile bootstrap interval
+    (``scipy.stats.bootstrap``, the episodes resampled in pairs)."""
+    from scipy.stats import bootstrap
+
+    diff = float(stat(a) - stat(b))
+    if np.array_equal(a, b):  # no spread to resample
+        return {"difference": diff, "ci95": [diff, diff]}
+    ci = bootstrap((a, b), lambda x, y, axis=-1: stat(x, axis=axis) - stat(y, axis=axis),
+                   paired=True, vectorized=True, n_resamples=BOOTSTRAP,
+                   confidence_level=0.95, method="percentile",
+                   rng=np.random.default_rng(seed)).confidence_interval
+    return {"difference": diff, "ci95": [float(ci.low), float(ci.high)]}
 
 
 def compare(dirs: dict[str, Path], seed: int, trees: int) -> dict:
@@ -98,7 +104,8 @@ def compare(dirs: dict[str, Path], seed: int, trees: int) -> dict:
     if not common:
         raise SystemExit("the builds share no test episode")
     out: dict = {"common_test_episodes": len(common), "heads": {}}
-    errs, flips, kept = {}, {}, None
+    errs: dict[str, np.ndarray] = {}
+    flips: dict[str, np.ndarray] = {}
     for h, ds in sets.items():
         train = ds.rows("train")
         t = time.perf_counter()
@@ -108,19 +115,18 @@ def compare(dirs: dict[str, Path], seed: int, trees: int) -> dict:
         scores, _ = evaluate(model, ds, rows, train, world, X=X)
         est = model.predict_matrix(X)[2][:, 0]
         true = np.array([relative_place(r)[0] for r in rows])
-        errs[h] = np.degrees(np.abs(np.angle(np.exp(1j * (est - true)))))
-        keep = np.abs(np.cos(true)) >= np.sin(np.radians(15.0))
-        kept = keep if kept is None else kept & keep
-        flips[h] = (np.sign(np.cos(est)) != np.sign(np.cos(true))).astype(float)
-        wrong, n = front_back_confusions(est, true)
+        errs[h] = angle_error_deg(est, true)
+        wrong, counted = front_back_flips(est, true)
+        flips[h] = wrong.astype(float)
+        kept = counted  # the same sources in both builds
         out["heads"][h] = dict(_pick(scores), train_episodes=len(train),
-                               front_back_confusions=[wrong, n],
+                               front_back_confusions=[int((wrong & counted).sum()),
+                                                      int(counted.sum())],
                                model_s=round(time.perf_counter() - t, 1))
-    rng = np.random.default_rng(seed)
     a, b = HEADS
     out["sadie_minus_sphere"] = {
-        "azimuth_median_error_deg": _paired(errs[a], errs[b], np.median, rng),
-        "front_back_confusion_rate": _paired(flips[a][kept], flips[b][kept], np.mean, rng),
+        "azimuth_median_error_deg": _paired(errs[a], errs[b], np.median, seed),
+        "front_back_confusion_rate": _paired(flips[a][kept], flips[b][kept], np.mean, seed),
     }
     return out
 

@@ -274,7 +274,8 @@ def _positions(Y: np.ndarray) -> np.ndarray:
 
 # -- scores ---------------------------------------------------------------------------------------
 
-def _angle_error_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def angle_error_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """|a - b| (rad in, degrees out), wrapped to 0..180."""
     return np.degrees(np.abs(np.arctan2(np.sin(a - b), np.cos(a - b))))
 
 
@@ -289,15 +290,20 @@ def _lateral_error_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 FRONT_BACK_MARGIN_DEG = 15.0
 
 
-def front_back_confusions(est: np.ndarray, true: np.ndarray) -> tuple[int, int]:
-    """(confusions, sources counted): a confusion is an estimated azimuth (rad) on the other
-    side of the interaural axis (front against back: the cosine's sign) than the true one,
-    counted over the sources at least :data:`FRONT_BACK_MARGIN_DEG` from that axis (the usual
+def front_back_flips(est: np.ndarray, true: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per source: (confused, counted). Confused: the estimated azimuth (rad) lies on the other
+    side of the interaural axis (front against back: the cosine's sign) than the true one.
+    Counted: the source is at least :data:`FRONT_BACK_MARGIN_DEG` from that axis (the usual
     rule of localisation studies, e.g. Wenzel et al. 1993, which leave out a cone about the
     axis where a reversal is not defined)."""
-    keep = np.abs(np.cos(true)) >= math.sin(math.radians(FRONT_BACK_MARGIN_DEG))
-    wrong = np.sign(np.cos(est[keep])) != np.sign(np.cos(true[keep]))
-    return int(wrong.sum()), int(keep.sum())
+    counted = np.abs(np.cos(true)) >= math.sin(math.radians(FRONT_BACK_MARGIN_DEG))
+    return np.sign(np.cos(est)) != np.sign(np.cos(true)), counted
+
+
+def front_back_confusions(est: np.ndarray, true: np.ndarray) -> tuple[int, int]:
+    """(confusions, sources counted) of :func:`front_back_flips`."""
+    wrong, counted = front_back_flips(est, true)
+    return int((wrong & counted).sum()), int(counted.sum())
 
 
 def _front_back_rate(est: np.ndarray, true: np.ndarray) -> float:
@@ -361,13 +367,13 @@ def evaluate(model: AudioModel, ds, rows: Sequence[dict], train_rows: Sequence[d
     truth_c = [r["category"] for r in rows]
     truth_m = [r["audio_material"] for r in rows]
     true_place = place_targets(rows)
-    az_err = _angle_error_deg(place[:, 0], true_place[:, 0])
+    az_err = angle_error_deg(place[:, 0], true_place[:, 0])
     lat_err = _lateral_error_deg(place[:, 0], true_place[:, 0])
     pos_err = np.linalg.norm(_xy(place) - _xy(true_place), axis=1)
     freq_c = [c for c, _ in Counter(r["category"] for r in train_rows).most_common()]
     freq_m = [m for m, _ in Counter(r["audio_material"] for r in train_rows).most_common()]
     prior = room_centre_prior(rows, world)
-    prior_az = _angle_error_deg(prior[:, 0], true_place[:, 0])
+    prior_az = angle_error_deg(prior[:, 0], true_place[:, 0])
     scores = {
         "episodes": len(rows),
         "category_top1": _topk(cp, cats, truth_c, 1),

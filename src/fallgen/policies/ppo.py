@@ -16,8 +16,8 @@ lambda 0.98, entropy bonus 0.02, a budget of :data:`DEFAULT_TIMESTEPS` steps in 
 success's +10 back over a search that takes a random walk ~170 actions: with 0.99 and 0.95
 (and 64-step rollouts, one worker) a run on the paper-size build learned to stop moving, each
 move's immediate -1 outweighing a success credited only to its last ~20 actions; with these
-it did not (docs/policies.md). The paper's scale on a GPU: ``--device cuda --set envs=16 --set n_steps=16
---set batch_size=128 --set timesteps=10000000`` on a machine with as many cores as
+it did not (docs/policies.md). The paper's scale on a GPU: ``--device cuda --set envs=16
+--set n_steps=16 --set batch_size=128 --set timesteps=10000000`` on a machine with as many cores as
 environments (the paper: 16-step rollouts per update, Adam 2.5e-4; SoundSpaces' AV-Nav ran 10
 processes for ~10^7 steps).
 """
