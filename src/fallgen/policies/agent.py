@@ -35,7 +35,7 @@ def load_run(run: str | Path, checkpoint: str | Path | None = None,
     if kind == "savi":
         from fallgen.policies.savi import SaviAgent
 
-        return SaviAgent(ck, deterministic=deterministic, device=dev)
+        return SaviAgent(ck, deterministic=deterministic, device=dev, path=path)
     from fallgen.errors import InputError
 
     raise InputError(path, "kind", f"{kind!r}: not a policy fallgen trains")

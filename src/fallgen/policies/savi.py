@@ -3,10 +3,10 @@
 Two stages, as published:
 
 1. the audio goal descriptor (:class:`fallgen.policies.savi_parts.GoalDescriptor`: the fallen
-   object's category and place from the step-0 clip) learned from the train split's clips
-   against the targets of the auditory perception module (category, place), ``goal_epochs``
-   full-batch steps (its scores before and after, on train and validation, in
-   ``RUN/goal.json``);
+   object's category and place from the auditory perception module's cues of the step-0
+   clip) learned from the train split's clips against that module's targets (category,
+   place), ``goal_epochs`` full-batch steps (its scores before and after, on train and
+   validation, in ``RUN/goal.json``);
 2. the policy: the memory of the last ``memory`` steps' observations (each through the shared
    encoder, :mod:`.encoder`, with a learned embedding of its age) and a token of the goal
    descriptor's estimate (category probabilities and place, detached) go through a
@@ -19,11 +19,15 @@ Two stages, as published:
 
 Simplifications, stated: the memory holds observations and encodes them again at each step
 (SAVi's scene memory keeps embeddings from an encoder trained first and frozen); 8 steps of
-memory on a CPU (SAVi: 150).
+memory on a CPU (SAVi: 150). The actor's ``found`` starts at probability ``found_prior`` (the
+bias of its logit; the other five share the rest): at the uniform 1/6, an untrained policy
+ends its episodes after ~6 actions with a wrong claim, and a run so started (discount 0.99,
+λ 0.95) learned to claim within ~20 actions, its return no worse than a walk's.
 
-Defaults, for 2 CPU cores (``fallgen train savi``): 2 environment workers, 64-step rollouts,
-memory 8, embeddings of 128, 2 blocks of 4 heads, a budget of :data:`DEFAULT_TIMESTEPS` steps
-in at most 3 h. The paper's scale on a GPU: ``--device cuda --set envs=10 --set n_steps=150
+Defaults, for 2 CPU cores (``fallgen train savi``): 2 environment workers, 128-step rollouts
+(minibatches of 128), discount 0.995, GAE λ 0.98 and entropy bonus 0.02 (PPO's, which carry a
+late success back over a long search: :mod:`.ppo`), ``found`` at 0.01, memory 8, embeddings of
+128, 2 blocks of 4 heads, a budget of :data:`DEFAULT_TIMESTEPS` steps in at most 3 h. The paper's scale on a GPU: ``--device cuda --set envs=10 --set n_steps=150
 --set memory=150 --set n_epochs=2 --set batch_size=300 --set timesteps=10000000`` (SAVi:
 150-step rollouts, two epochs an update, Adam 2.5e-4, trained to convergence).
 """
@@ -31,6 +35,7 @@ in at most 3 h. The paper's scale on a GPU: ``--device cuda --set envs=10 --set 
 from __future__ import annotations
 
 import json
+import math
 from collections import deque
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -43,16 +48,19 @@ from gymnasium import spaces
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 from torch import nn
 
+from fallgen.errors import InputError
 from fallgen.nav.agent import ACTIONS
 from fallgen.policies import SENSORS
 from fallgen.policies.encoder import FEATURES_DIM, IMAGE_KEYS, ObservationEncoder, compactor
 from fallgen.policies.runs import apply_overrides
-from fallgen.policies.savi_parts import FRAME_KEYS, GoalDescriptor, memory_space, \
-    memory_wrapper, pretrain_goal, stack_memory
+from fallgen.policies.savi_parts import FRAME_KEYS, N_CUES, GoalDescriptor, cue_features, \
+    memory_space, memory_wrapper, pretrain_goal, stack_memory
 from fallgen.policies.sb3_loop import OnPolicySettings, train_on_env
 
 DEFAULT_TIMESTEPS = 60_000
 DEFAULT_MINUTES = 180.0
+#: The ``found`` action's index.
+FOUND = ACTIONS.index("found")
 #: The environment sensors SAVi's training reads (object_position: the place's label only).
 TRAIN_SENSORS = SENSORS + ("object_position",)
 
@@ -62,6 +70,12 @@ class SaviSettings(OnPolicySettings):
     """:class:`~fallgen.policies.sb3_loop.OnPolicySettings`, the memory, the transformer and
     the goal descriptor's two stages."""
 
+    n_steps: int = 128
+    batch_size: int = 128
+    gamma: float = 0.995
+    gae_lambda: float = 0.98
+    ent_coef: float = 0.02
+    found_prior: float = 0.01
     memory: int = 8
     embed: int = 128
     layers: int = 2
@@ -77,6 +91,8 @@ def settings(overrides: Mapping[str, Any] | None = None) -> SaviSettings:
     s = apply_overrides(SaviSettings(), overrides)
     if s.embed % s.heads:
         raise ValueError(f"embed={s.embed}: a multiple of heads={s.heads}")
+    if not 0.0 < s.found_prior < 1.0:
+        raise ValueError(f"found_prior={s.found_prior}: a probability in (0, 1)")
     return s
 
 
@@ -110,7 +126,7 @@ class SaviExtractor(BaseFeaturesExtractor):
         ages = torch.arange(m - 1, -1, -1, device=frames.device)
         frames = frames + self.age(ages)[None]
         with torch.no_grad():
-            logits, place = self.goal(obs["audio"])
+            logits, place = self.goal(obs["cues"])
         goal = self.goal_in(torch.cat([torch.softmax(logits, -1), place], -1))[:, None]
         x = torch.cat([goal, frames], 1)
         valid = torch.cat([torch.ones(b, 1, device=x.device), obs["valid"].float()], 1) > 0.5
@@ -130,16 +146,28 @@ def policy_kwargs(cfg: Mapping[str, Any]) -> dict[str, Any]:
                 normalize_images=False, net_arch=[])
 
 
+def found_bias(prior: float, actions: int = len(ACTIONS)) -> float:
+    """The ``found`` logit's bias that makes its probability ``prior`` when the other
+    ``actions - 1`` logits are 0."""
+    return math.log(prior * (actions - 1) / (1.0 - prior))
+
+
 def make_model(cfg: Mapping[str, Any], venv, device):
     from stable_baselines3 import PPO
 
-    return PPO("MultiInputPolicy", venv, n_steps=int(cfg["n_steps"]),
+    model = PPO("MultiInputPolicy", venv, n_steps=int(cfg["n_steps"]),
                batch_size=int(cfg["batch_size"]), n_epochs=int(cfg["n_epochs"]),
                learning_rate=float(cfg["learning_rate"]), gamma=float(cfg["gamma"]),
                gae_lambda=float(cfg["gae_lambda"]), clip_range=float(cfg["clip_range"]),
                ent_coef=float(cfg["ent_coef"]), vf_coef=float(cfg["vf_coef"]),
                max_grad_norm=float(cfg["max_grad_norm"]), policy_kwargs=policy_kwargs(cfg),
                device=device, verbose=0)
+    with torch.no_grad():  # zero weights (SB3: orthogonal, gain 0.01): the prior exactly
+        net = model.policy.action_net
+        net.weight.zero_()
+        net.bias.zero_()
+        net.bias[FOUND] = found_bias(float(cfg["found_prior"]))
+    return model
 
 
 class GoalFinetune:
@@ -167,7 +195,7 @@ class GoalFinetune:
         goal = model.policy.features_extractor.goal
         obs = model.rollout_buffer.observations
         dev = model.device
-        x = torch.as_tensor(obs["audio"].reshape(-1, obs["audio"].shape[-1]), device=dev)
+        x = torch.as_tensor(obs["cues"].reshape(-1, obs["cues"].shape[-1]), device=dev)
         y = torch.as_tensor(obs["goal_place"].reshape(-1, 2), device=dev)
         with torch.no_grad():
             err = float(torch.linalg.norm(goal(x)[1] - y, dim=1).mean()) * PLACE_SCALE_M
@@ -188,6 +216,9 @@ def train(dataset: str | Path, run, cfg: Mapping[str, Any], digest: str, *, seed
     from fallgen.learn.runtime import isolated_rng, resolve_device, session
 
     cfg = dict(cfg)
+    if "found_prior" not in cfg:
+        raise InputError(run.meta_path, "config.found_prior", "a SAVi run from before its goal "
+                         "descriptor read the clip's cues; start another (-o)")
     cfg["n_categories"] = len(Dataset(dataset).category_labels)
     fine = GoalFinetune(int(cfg["goal_finetune_steps"]), float(cfg["goal_finetune_lr"]))
     pretrained = None
@@ -229,12 +260,16 @@ class SaviAgent:
     sensors = SENSORS
 
     def __init__(self, checkpoint: Mapping[str, Any], deterministic: bool = False,
-                 device: Any = "cpu") -> None:
+                 device: Any = "cpu", path: Any = "checkpoint") -> None:
         from stable_baselines3.common.policies import MultiInputActorCriticPolicy
 
         cfg = checkpoint["config"]
+        if "found_prior" not in cfg:
+            raise InputError(path, "config.found_prior", "a SAVi run from before its goal "
+                             "descriptor read the clip's cues; train it again")
         self.m = int(cfg["memory"])
         self.compact = compactor(int(cfg["sample_rate"]))
+        self.cue_features = None
         space = memory_space(self.compact.spaces | {"audio": spaces.Box(
             0.0, 1.0, (128,), np.float32)}, self.m)
         self.policy = MultiInputActorCriticPolicy(space, spaces.Discrete(len(ACTIONS)),
@@ -249,13 +284,19 @@ class SaviAgent:
         self.rng = np.random.default_rng(seed)
         self.frames: deque[dict[str, np.ndarray]] = deque(maxlen=self.m)
         self.audio: np.ndarray | None = None
+        self.cues = np.zeros(N_CUES, np.float32)
 
     def act(self, obs: Mapping[str, np.ndarray]) -> int:
         c = self.compact(obs, first=self.audio is None)
         if self.audio is None:
             self.audio = c["audio"]
+            clip = np.asarray(obs["audio"])
+            if self.cue_features is None or self.cue_features.clip_samples != clip.shape[-1]:
+                self.cue_features = cue_features(self.compact.sample_rate, clip.shape[-1])
+            self.cues = self.cue_features.extract(clip)
         self.frames.append({k: c[k] for k in FRAME_KEYS})
-        mem = stack_memory(list(self.frames), self.m, self.audio, np.zeros(2, np.float32))
+        mem = stack_memory(list(self.frames), self.m, self.audio, np.zeros(2, np.float32),
+                           self.cues)
         t = {k: torch.as_tensor(v[None], device=self.device) for k, v in mem.items()}
         with torch.no_grad():
             p = self.policy.get_distribution(t).distribution.probs[0].double().cpu().numpy()
