@@ -192,3 +192,26 @@ def test_trajectory_frames_follow_the_expert(maker, events, episodes):
     assert np.array_equal(full.frames[0].rgb, full.view.rgb)  # step 0 is the first view
     last = full.frames[-1]
     assert last.pixels_of("obj:target") >= VISIBLE_PIXELS  # the final view sees the object
+
+
+def test_a_skipped_attempt_reports_the_time_it_spent(maker, events, monkeypatch):
+    """An attempt given up in its search (no path) still accounts for its time: the Skip
+    carries the seconds of the stages it went through, the search's charged to planning
+    (here a search that takes at least 0.2 s by the clock before it answers)."""
+    import time
+
+    from fallgen.nav.expert import NoPath
+    from fallgen.pipeline import settled
+
+    def slow_no_path(self, start):
+        time.sleep(0.2)
+        raise NoPath("hidden")
+
+    monkeypatch.setattr(settled.SettledRoom, "expert", slow_no_path)
+    with pytest.raises(Skip) as e:
+        maker.make(0, events[0], 11)
+    assert e.value.reason == "no_path"
+    t = e.value.timings_s
+    assert set(t) == {"maps", "spawn", "planning"}
+    assert 0.2 <= t["planning"] < 5.0
+    assert t["maps"] > 0

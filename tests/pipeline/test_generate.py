@@ -165,3 +165,35 @@ def test_a_shard_is_kept_only_as_it_was_written_by_the_same_inputs(tmp_path):
     (tmp_path / "media" / f"{name}.h5").unlink()
     data.unlink()
     assert shard_state(tmp_path, name, stamp).status == "missing"
+
+
+def test_a_shard_accounts_for_the_time_of_attempts_given_up(tiny_build, tmp_path):
+    """Every attempt's time is in the shard's timings: an episode whose events are all given
+    up (here each after 1 s of planning, by its Skip's account) adds its attempts' seconds
+    under ``skipped:<stage>``, and the episode is dropped."""
+    from fallgen.config import load_config
+    from fallgen.pipeline.episode import Skip
+    from fallgen.pipeline.generate import build_plan, job_event_ids, load_events, make_shard
+
+    base, cfg_file = tiny_build
+    cfg, out = load_config(cfg_file), base / "one"
+    b = build_plan(cfg, out)
+    job = b.jobs[0]
+    events = {e.event_id: e for e in load_events(cfg, out, job_event_ids(job, b.pools))}
+
+    class GivesUp:
+        labels = ("a",)
+        calls = 0
+
+        def make(self, *args, **kwargs):
+            self.calls += 1
+            s = Skip("no_path", "test")
+            s.timings_s = {"maps": 0.25, "planning": 1.0}
+            raise s
+
+    maker = GivesUp()
+    res = make_shard(None, maker, cfg, job, events, b.pools, tmp_path, trim=lambda: False)
+    assert res.episodes == 0 and res.skips["no_path"] == maker.calls > 0
+    assert res.skips["episode_dropped"] == len(job.episodes)
+    assert dict(res.timings_s) == pytest.approx(
+        {"skipped:maps": 0.25 * maker.calls, "skipped:planning": 1.0 * maker.calls})

@@ -58,11 +58,19 @@ SETTLE_TOLERANCE_DEG = 1.0
 
 
 class Skip(Exception):
-    """The event cannot make this episode (replay diverged, no free spawn, no path)."""
+    """The event cannot make this episode (replay diverged, no free spawn, no path);
+    ``timings_s``: the seconds the attempt spent in each stage before it was given up (set by
+    :meth:`EpisodeMaker.make`)."""
 
     def __init__(self, reason: str, detail: str = "") -> None:
         self.reason = reason
+        self.timings_s: dict[str, float] = {}
         super().__init__(f"{reason}: {detail}" if detail else reason)
+
+
+#: The stage a skip's reason is found in (its time since the stage before is charged there).
+SKIP_STAGE = {"no_spawn": "spawn", "no_path": "planning", "search_limit": "planning",
+              "replay_diverged": "replay", "inaudible": "audio"}
 
 
 class ExpertFailure(RuntimeError):
@@ -225,6 +233,10 @@ class EpisodeMaker:
             if frames == "trajectory":
                 shots = tuple(camera.render(data, p) for p in out.poses)
             lap("render")
+        except Skip as s:
+            lap(SKIP_STAGE.get(s.reason, "other"))
+            s.timings_s = dict(t)
+            raise
         finally:
             if settled.room_faces is not None and not self.appearance_randomization:
                 self._room_faces[event.room_variant] = settled.room_faces

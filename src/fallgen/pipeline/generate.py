@@ -24,6 +24,7 @@ import dataclasses
 import glob
 import itertools
 import os
+import time
 from collections import Counter
 from collections.abc import Callable, Collection, Iterator
 from dataclasses import dataclass, field
@@ -55,6 +56,11 @@ MAX_EVENT_ATTEMPTS = 10
 
 @dataclass
 class ShardResult:
+    """One shard's outcome. ``timings_s``: seconds by stage of every attempt, the episodes'
+    (``audio``, ``planning``, ...), the writing of their rows and media (``writing``) and the
+    attempts given up (``skipped:planning``, ...: an event with no path is found out only
+    by a search)."""
+
     name: str
     episodes: int
     skips: Counter = field(default_factory=Counter)
@@ -187,11 +193,14 @@ def make_shard(world: World, maker: EpisodeMaker, cfg: BuildConfig, job: ShardJo
                     ep = maker.make(p.episode_id, ev, cfg.root_seed, cfg.generate.frames)
                 except Skip as s:
                     res.skips[s.reason] += 1
+                    res.timings_s.update({f"skipped:{k}": v for k, v in s.timings_s.items()})
                     skipped.append((ev.event_id, s.reason))
                     continue
+                clock = time.perf_counter()
                 rows.append(row_of(ep, p.split, f"media/{name}.h5", writer.add(ep),
                                    cfg.root_seed, skipped))
                 res.timings_s.update(ep.timings_s)
+                res.timings_s["writing"] += time.perf_counter() - clock
                 break
             else:
                 res.skips["episode_dropped"] += 1
