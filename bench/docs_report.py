@@ -422,7 +422,7 @@ def full_build(src) -> str | None:
     w, g = f["wall_min"], f.get("generation", {})
     rows = [["wall time (rehearse + generate)",
              f"**{w['total']:.1f} min** ({w['rehearse']:.1f} + {w['generate']:.1f})",
-             f"{f.get('goal_min', 15):g} min"],
+             f"{f.get('goal_min', 10):g} min"],
             ["against the original's ~8 h", f"{f.get('speedup_vs_original_8h', '-')}x", ""],
             ["CPU time (all processes)", f"{f['cpu_s']:.0f} s ({f['cpu_use']:.2f} cores busy)",
              ""],
