@@ -215,3 +215,20 @@ def test_a_skipped_attempt_reports_the_time_it_spent(maker, events, monkeypatch)
     assert set(t) == {"maps", "spawn", "planning"}
     assert 0.2 <= t["planning"] < 5.0
     assert t["maps"] > 0
+
+
+def test_the_build_gives_up_a_search_at_its_own_state_limit(maker, events, episodes,
+                                                             monkeypatch):
+    """The build's expert searches under ``BUILD_LIMITS`` (fewer states than the search's
+    own default): an episode it makes is given up (``search_limit``) when they allow less
+    than its search needs (here no renderer verdict at all)."""
+    from fallgen.nav.expert import Limits
+    from fallgen.pipeline import settled
+
+    assert settled.BUILD_LIMITS.states < Limits().states
+    ep = episodes[0]
+    i = next(k for k, e in enumerate(events) if e is ep.event)
+    monkeypatch.setattr(settled, "BUILD_LIMITS", Limits(verdicts=0))
+    with pytest.raises(Skip) as e:
+        maker.make(ep.episode_id, events[i], 11)
+    assert e.value.reason == "search_limit"
