@@ -85,14 +85,11 @@ def test_no_bound_where_the_checks_skip_cells_or_the_outside_is_free():
     assert reachable_cells(ok, 0.1, (0.5, 0.5), 0.05) is None
 
 
-def test_expert_proves_no_path_where_the_search_runs_out():
-    """An agent penned in a 1 x 1 m corner of a room, a ball beyond the pen's 2.5 m wall:
-    the search alone enters states until its limit (SearchLimit); with the scene's occluders
-    the expert answers NoPath, proven from the pen's cells. With a window in the wall the
-    proof fails, and the search goes on to its own answer."""
-    spec = AgentSpec()
-    h = spec.camera_height_m
-
+def _pen(h: float):
+    """An agent penned in a 1 x 1 m corner of a room (x < 1.1, y < 1.0 m), a ball at eye
+    height ``h`` beyond the pen's 2.5 m wall (x 1.2 m): ``scene(window)`` makes the
+    occluders (with a window in the wall in line with the ball); also the grid, the start
+    pose, the ball's centre and its box's corners."""
     def scene(window: bool):
         wall = ('<geom type="box" size="0.02 1.5 1.25" pos="1.2 1.5 1.25"/>' if not window else
                 '<geom type="box" size="0.02 0.15 1.25" pos="1.2 0.15 1.25"/>'
@@ -116,6 +113,18 @@ def test_expert_proves_no_path_where_the_search_runs_out():
     target = np.array([2.2, 0.5, h])
     corners = target + 0.05 * np.array([[a, b, c] for a in (-1, 1) for b in (-1, 1)
                                         for c in (-1, 1)])
+    return scene, g, start, target, corners
+
+
+def test_expert_proves_no_path_where_the_search_runs_out():
+    """An agent penned in a 1 x 1 m corner of a room, a ball beyond the pen's 2.5 m wall:
+    the search alone enters states until its limit (SearchLimit); with the scene's occluders
+    the expert answers NoPath, proven from the pen's cells. With a window in the wall the
+    proof fails, and the search goes on to its own answer."""
+    spec = AgentSpec()
+    h = spec.camera_height_m
+
+    scene, g, start, target, corners = _pen(h)
     never = (lambda p: False)  # what the renderer says: nothing of the ball shows
     small = Limits(states=150_000)
     try:
@@ -137,3 +146,39 @@ def test_expert_proves_no_path_where_the_search_runs_out():
         expert(start, g, target, corners, never, spec, small, sight=windowed.kernel)
     except NoPath as e:
         assert isinstance(e, SearchLimit) or "hides the object" not in str(e)
+
+
+def test_block_proofs_give_the_cell_proofs_verdict_with_fewer_region_proofs(monkeypatch):
+    """The pen's cells within reach of the ball, taken in blocks (``BLOCK``) and cell by cell
+    (blocks of one): the same verdict, every cell proven hidden behind the solid wall and none
+    with a window in line with the ball; behind the wall the blocks need fewer region proofs
+    than the cells (each cell's is one at least)."""
+    import fallgen.nav.hidden as hidden
+
+    spec = AgentSpec()
+    h = spec.camera_height_m
+    scene, g, start, target, _ = _pen(h)
+    ok = g.move_table(spec.radius_m)
+    spacing = STEP_M / (STEP_SAMPLES - 1)
+    calls = [0]
+    region = hidden.hidden_from_cell
+
+    def counted(*a):
+        calls[0] += 1
+        return region(*a)
+
+    monkeypatch.setattr(hidden, "hidden_from_cell", counted)
+    out = {}
+    for window in (False, True):
+        kernel = scene(window).kernel
+        for block in (1, hidden.BLOCK):
+            monkeypatch.setattr(hidden, "BLOCK", block)
+            calls[0] = 0
+            verdict = hidden.hidden_everywhere(ok, g.resolution, (start.x, start.y), target[:2],
+                                               2.0, h, spacing, kernel)
+            out[window, block] = verdict, calls[0]
+    cells, by_cell = out[False, 1]
+    assert cells is not None and cells >= 30 and by_cell >= cells
+    assert out[False, hidden.BLOCK][0] == cells
+    assert out[False, hidden.BLOCK][1] < by_cell / 2
+    assert out[True, 1][0] is None and out[True, hidden.BLOCK][0] is None
