@@ -232,3 +232,33 @@ def test_the_build_gives_up_a_search_at_its_own_state_limit(maker, events, episo
     with pytest.raises(Skip) as e:
         maker.make(ep.episode_id, events[i], 11)
     assert e.value.reason == "search_limit"
+
+
+def test_an_event_proven_hidden_is_not_searched_again_from_the_same_cells(world, maker, events,
+                                                                         monkeypatch):
+    """Once the proof that no reachable pose sees the object holds for an event, another
+    attempt at it whose spawn reaches the same cells is given up (no_path) without a search;
+    another event, or the same event from other cells, is searched."""
+    from fallgen.nav.expert import HiddenEverywhere
+    from fallgen.pipeline import settled
+
+    asked = []
+
+    def proven(self, start):
+        asked.append(self.event.event_id)
+        raise HiddenEverywhere("hidden")
+
+    monkeypatch.setattr(settled.SettledRoom, "expert", proven)
+    maker = EpisodeMaker(world, maker.binaural, rir=maker.rir)  # its own memory of proofs
+    for _ in range(2):
+        with pytest.raises(Skip) as e:
+            maker.make(0, events[1], 11)
+        assert e.value.reason == "no_path"
+    assert asked == [events[1].event_id]
+    with pytest.raises(Skip):
+        maker.make(0, events[2], 11)
+    assert asked == [events[1].event_id, events[2].event_id]
+    monkeypatch.setattr(settled.SettledRoom, "reachable_key", lambda self, start: b"other")
+    with pytest.raises(Skip):
+        maker.make(0, events[1], 11)
+    assert asked[-1] == events[1].event_id and len(asked) == 3

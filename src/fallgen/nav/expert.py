@@ -69,6 +69,12 @@ class NoPath(RuntimeError):
     """No pose from which the object is visible can be reached."""
 
 
+class HiddenEverywhere(NoPath):
+    """No pose the agent can reach sees the object, proven over the start's reachable cells
+    (:func:`fallgen.nav.hidden.hidden_everywhere`): the same holds from any start whose
+    reachable cells (:func:`fallgen.nav.hidden.reachable_cells`) are the same."""
+
+
 class SearchLimit(NoPath):
     """The search gave up (:data:`MAX_VISIBILITY_CHECKS`, :data:`MAX_STATES`) before it could
     prove its answer optimal."""
@@ -108,8 +114,8 @@ def _prove_hidden(start: Pose, ok: np.ndarray, resolution: float, target_xy,
                               SUCCESS_DISTANCE_M, spec.camera_height_m,
                               STEP_M / (STEP_SAMPLES - 1), sight)
     if cells is not None:
-        raise NoPath(f"the scene hides the object from every reachable cell within reach "
-                     f"({cells} cells)")
+        raise HiddenEverywhere(f"the scene hides the object from every reachable cell within "
+                               f"reach ({cells} cells)")
 
 
 @dataclass(frozen=True)

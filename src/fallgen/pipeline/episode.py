@@ -39,7 +39,7 @@ from fallgen.audio.impact import radiated_energy_j
 from fallgen.audio.mix import Binaural, BinauralClip, Listener
 from fallgen.audio.room import RirSettings, RoomAcoustics
 from fallgen.nav.agent import HEADINGS, VISIBLE_PIXELS, AgentSpec, Pose, run
-from fallgen.nav.expert import Expert, NoPath, SearchLimit
+from fallgen.nav.expert import Expert, HiddenEverywhere, NoPath, SearchLimit
 from fallgen.nav.occupancy import OccupancyGrid
 from fallgen.physics.drop import instance_of, replay
 from fallgen.physics.events import FallEvent
@@ -142,6 +142,11 @@ class EpisodeMaker:
         self._room_samples: dict[str, np.ndarray] = {}  # variant -> the room's occupancy layer
         self._room_faces: dict[str, SceneFaces] = {}  # variant -> its room's drawn faces
         self._rooms: dict[str, RoomAcoustics] = {}  # variant -> its furnished acoustics
+        #: (event, digest of the cells reachable from a spawn) -> the proof that no reachable
+        #: pose sees the object, for the event's next attempts from the same cells (a shard
+        #: tries an event given up by one episode again for the next: the proof is the
+        #: costliest part of an attempt given up)
+        self._hidden: dict[tuple[str, bytes], str] = {}
         self._gl: GLContext | None = None  # one GL context for every episode's camera
 
     def close(self) -> None:
@@ -192,10 +197,18 @@ class EpisodeMaker:
             # rng, so the episode is the same in either order). Both searches of the expert
             # and the simulator's check ask about the same poses: the room renders each once
             # (the scene is static).
+            cells = settled.reachable_key(spawn)
+            proven = None if cells is None else self._hidden.get((event.event_id, cells))
+            if proven is not None:
+                raise Skip("no_path", proven)
             try:
                 ex = settled.expert(spawn)
             except SearchLimit as e:  # not proven either way within the search's limits
                 raise Skip("search_limit", str(e)) from None
+            except HiddenEverywhere as e:
+                if cells is not None:
+                    self._hidden[(event.event_id, cells)] = str(e)
+                raise Skip("no_path", str(e)) from None
             except NoPath as e:
                 raise Skip("no_path", str(e)) from None
             lap("planning")

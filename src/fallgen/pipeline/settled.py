@@ -14,13 +14,15 @@ eye point, kept per eye point).
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import math
 
 import mujoco
 import numpy as np
 
-from fallgen.nav.agent import VISIBLE_PIXELS, AgentSpec, Pose
+from fallgen.nav.agent import STEP_M, STEP_SAMPLES, VISIBLE_PIXELS, AgentSpec, Pose
 from fallgen.nav.expert import Expert, Limits, Plan, expert, plan_to_see
+from fallgen.nav.hidden import reachable_cells
 from fallgen.nav.occupancy import OccupancyGrid, geom_box_corners, occupancy, room_samples
 from fallgen.physics.drop import instance_of
 from fallgen.physics.events import FallEvent
@@ -165,6 +167,17 @@ class SettledRoom:
         return expert(start, self.grid, self.centre, self.corners, self.visible, self.spec,
                       limits=BUILD_LIMITS, may_see=self.may_see, unseen=self.unseen,
                       sight=self.occluders.kernel)
+
+    def reachable_key(self, start: Pose) -> bytes | None:
+        """A digest of the cells the agent can reach from ``start``, as the expert's proof
+        that no reachable pose sees the object bounds them
+        (:func:`fallgen.nav.hidden.reachable_cells`): that proof holds from every start with
+        the same digest. None where they cannot be bounded."""
+        cells = reachable_cells(self.grid.move_table(self.spec.radius_m), self.grid.resolution,
+                                (start.x, start.y), STEP_M / (STEP_SAMPLES - 1))
+        if cells is None:
+            return None
+        return hashlib.blake2b(np.ascontiguousarray(cells).tobytes(), digest_size=16).digest()
 
     def plan(self, start: Pose) -> Plan:
         """The expert's own plan from ``start`` (fewest forward moves, then fewest turns)
