@@ -142,11 +142,11 @@ class EpisodeMaker:
         self._room_samples: dict[str, np.ndarray] = {}  # variant -> the room's occupancy layer
         self._room_faces: dict[str, SceneFaces] = {}  # variant -> its room's drawn faces
         self._rooms: dict[str, RoomAcoustics] = {}  # variant -> its furnished acoustics
-        #: (event, digest of the cells reachable from a spawn) -> the proof that no reachable
-        #: pose sees the object, for the event's next attempts from the same cells (a shard
+        #: event -> (digest of the cells reachable from a spawn -> the proof that no reachable
+        #: pose sees the object), for the event's next attempts from the same cells (a shard
         #: tries an event given up by one episode again for the next: the proof is the
         #: costliest part of an attempt given up)
-        self._hidden: dict[tuple[str, bytes], str] = {}
+        self._hidden: dict[str, dict[bytes, str]] = {}
         self._gl: GLContext | None = None  # one GL context for every episode's camera
 
     def close(self) -> None:
@@ -197,8 +197,8 @@ class EpisodeMaker:
             # rng, so the episode is the same in either order). Both searches of the expert
             # and the simulator's check ask about the same poses: the room renders each once
             # (the scene is static).
-            cells = settled.reachable_key(spawn)
-            proven = None if cells is None else self._hidden.get((event.event_id, cells))
+            proofs = self._hidden.get(event.event_id)  # the cells digested only then
+            proven = proofs.get(settled.reachable_key(spawn)) if proofs else None
             if proven is not None:
                 raise Skip("no_path", proven)
             try:
@@ -206,8 +206,9 @@ class EpisodeMaker:
             except SearchLimit as e:  # not proven either way within the search's limits
                 raise Skip("search_limit", str(e)) from None
             except HiddenEverywhere as e:
+                cells = settled.reachable_key(spawn)
                 if cells is not None:
-                    self._hidden[(event.event_id, cells)] = str(e)
+                    self._hidden.setdefault(event.event_id, {})[cells] = str(e)
                 raise Skip("no_path", str(e)) from None
             except NoPath as e:
                 raise Skip("no_path", str(e)) from None

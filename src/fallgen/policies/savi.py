@@ -21,13 +21,14 @@ Simplifications, stated: the memory holds observations and encodes them again at
 (SAVi's scene memory keeps embeddings from an encoder trained first and frozen); 8 steps of
 memory on a CPU (SAVi: 150). The actor's ``found`` starts at probability ``found_prior`` (the
 bias of its logit; the other five share the rest): at the uniform 1/6, an untrained policy
-ends its episodes after ~6 actions with a wrong claim, and a run so started (discount 0.99,
-λ 0.95) learned to claim within ~20 actions, its return no worse than a walk's.
+ends its episodes after ~6 actions with a wrong claim. Neither start has learned on the
+paper-size build: both runs came to claim within a few actions (docs/policies.md).
 
 Defaults, for 2 CPU cores (``fallgen train savi``): 2 environment workers, 128-step rollouts
 (minibatches of 128), discount 0.995, GAE λ 0.98 and entropy bonus 0.02 (PPO's, which carry a
 late success back over a long search: :mod:`.ppo`), ``found`` at 0.01, memory 8, embeddings of
-128, 2 blocks of 4 heads, a budget of :data:`DEFAULT_TIMESTEPS` steps in at most 3 h. The paper's scale on a GPU: ``--device cuda --set envs=10 --set n_steps=150
+128, 2 blocks of 4 heads, a budget of :data:`DEFAULT_TIMESTEPS` steps in at most 3 h.
+The paper's scale on a GPU: ``--device cuda --set envs=10 --set n_steps=150
 --set memory=150 --set n_epochs=2 --set batch_size=300 --set timesteps=10000000`` (SAVi:
 150-step rollouts, two epochs an update, Adam 2.5e-4, trained to convergence).
 """
@@ -53,8 +54,9 @@ from fallgen.nav.agent import ACTIONS
 from fallgen.policies import SENSORS
 from fallgen.policies.encoder import FEATURES_DIM, IMAGE_KEYS, ObservationEncoder, compactor
 from fallgen.policies.runs import apply_overrides
-from fallgen.policies.savi_parts import FRAME_KEYS, N_CUES, GoalDescriptor, cue_features, \
-    memory_space, memory_wrapper, pretrain_goal, stack_memory
+from fallgen.perception.audio_features import AudioFeatures
+from fallgen.policies.savi_parts import FRAME_KEYS, N_CUES, GoalDescriptor, memory_space, \
+    memory_wrapper, pretrain_goal, stack_memory
 from fallgen.policies.sb3_loop import OnPolicySettings, train_on_env
 
 DEFAULT_TIMESTEPS = 60_000
@@ -146,6 +148,14 @@ def policy_kwargs(cfg: Mapping[str, Any]) -> dict[str, Any]:
                 normalize_images=False, net_arch=[])
 
 
+def require_cues(cfg: Mapping[str, Any], path: Any) -> None:
+    """InputError (naming ``path`` and the field) for the settings of a run from before the
+    goal descriptor read the clip's cues (they have no ``found_prior``)."""
+    if "found_prior" not in cfg:
+        raise InputError(path, "config.found_prior", "a SAVi run from before its goal "
+                         "descriptor read the clip's cues; train another run (-o)")
+
+
 def found_bias(prior: float, actions: int = len(ACTIONS)) -> float:
     """The ``found`` logit's bias that makes its probability ``prior`` when the other
     ``actions - 1`` logits are 0."""
@@ -216,9 +226,7 @@ def train(dataset: str | Path, run, cfg: Mapping[str, Any], digest: str, *, seed
     from fallgen.learn.runtime import isolated_rng, resolve_device, session
 
     cfg = dict(cfg)
-    if "found_prior" not in cfg:
-        raise InputError(run.meta_path, "config.found_prior", "a SAVi run from before its goal "
-                         "descriptor read the clip's cues; start another (-o)")
+    require_cues(cfg, run.meta_path)
     cfg["n_categories"] = len(Dataset(dataset).category_labels)
     fine = GoalFinetune(int(cfg["goal_finetune_steps"]), float(cfg["goal_finetune_lr"]))
     pretrained = None
@@ -264,9 +272,7 @@ class SaviAgent:
         from stable_baselines3.common.policies import MultiInputActorCriticPolicy
 
         cfg = checkpoint["config"]
-        if "found_prior" not in cfg:
-            raise InputError(path, "config.found_prior", "a SAVi run from before its goal "
-                             "descriptor read the clip's cues; train it again")
+        require_cues(cfg, path)
         self.m = int(cfg["memory"])
         self.compact = compactor(int(cfg["sample_rate"]))
         self.cue_features = None
@@ -292,7 +298,8 @@ class SaviAgent:
             self.audio = c["audio"]
             clip = np.asarray(obs["audio"])
             if self.cue_features is None or self.cue_features.clip_samples != clip.shape[-1]:
-                self.cue_features = cue_features(self.compact.sample_rate, clip.shape[-1])
+                self.cue_features = AudioFeatures(sample_rate=int(self.compact.sample_rate),
+                                                  clip_samples=int(clip.shape[-1]))
             self.cues = self.cue_features.extract(clip)
         self.frames.append({k: c[k] for k in FRAME_KEYS})
         mem = stack_memory(list(self.frames), self.m, self.audio, np.zeros(2, np.float32),

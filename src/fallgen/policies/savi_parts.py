@@ -45,11 +45,6 @@ PLACE_SCALE_M = 10.0
 FRAME_KEYS = ("rgb", "depth", "category_seg", "pose")
 
 
-def cue_features(sample_rate: int, clip_samples: int) -> AudioFeatures:
-    """The perception module's cue settings for clips of this rate and length."""
-    return AudioFeatures(sample_rate=int(sample_rate), clip_samples=int(clip_samples))
-
-
 #: Cues per clip (the default :class:`AudioFeatures`' names).
 N_CUES = len(AudioFeatures().names)
 
@@ -165,7 +160,8 @@ class MemoryObservation(gym.Wrapper):
         inner = compact.observation_space
         if "object_position" not in inner.spaces:
             raise ValueError("MemoryObservation needs the object_position sensor (the label)")
-        self.cues = cue_features(compact.sample_rate, env.observation_space["audio"].shape[-1])
+        self.cues = AudioFeatures(sample_rate=int(compact.sample_rate),
+                                  clip_samples=int(env.observation_space["audio"].shape[-1]))
         self.observation_space = memory_space(inner, self.memory)
         self._frames: deque[dict[str, np.ndarray]] = deque(maxlen=self.memory)
         self._audio = np.zeros(inner["audio"].shape, np.float32)
@@ -238,4 +234,4 @@ def memory_wrapper(memory: int):
 
 __all__ = ["GoalDescriptor", "MemoryObservation", "memory_space", "stack_memory",
            "memory_wrapper", "pretrain_goal", "clip_targets", "goal_loss", "goal_scores",
-           "PLACE_SCALE_M", "FRAME_KEYS", "N_CUES", "cue_features"]
+           "PLACE_SCALE_M", "FRAME_KEYS", "N_CUES"]
