@@ -124,9 +124,16 @@ def _rows_of_table(data: dict) -> dict[str, tuple[str, tuple | None]]:
         from fallgen.evaluation.table_policies import PolicyRun
     except ImportError:  # an older fallgen: the keys stand for themselves
         return {}
-    policies = [PolicyRun(kind, Path(t.get("checkpoint", "")), t.get("sha256", ""), t)
-                for kind, t in data.get("policy_training", {}).items()]
-    return {r.key: (r.label, r.paper) for r in [*rows_table1(policies), *rows_table2()]}
+    policies = [PolicyRun(t.get("kind", key), Path(t.get("checkpoint", "")),
+                          t.get("sha256", ""), t)
+                for key, t in data.get("policy_training", {}).items()]
+    return {r.key: (r.label, r.paper) for r in [*rows_table1(policies), *rows_table2(policies)]}
+
+
+def _is_table2(key: str) -> bool:
+    """Whether a row of table.json is Table 2's (cross-scene: 'kitchen_to_study',
+    'ppo_study_to_kitchen', ...)."""
+    return key.endswith(("kitchen_to_study", "study_to_kitchen"))
 
 
 def _score(s: dict, ci: bool = True) -> list[str]:
@@ -161,7 +168,7 @@ def results(src: dict[str, Source]) -> str | None:
         done = table.data["results"]
         for key, s in sorted(done.items(), key=lambda kv: order.get(kv[0], len(order))):
             label, paper = names.get(key, (key, None))
-            if key in ("kitchen_to_study", "study_to_kitchen"):
+            if _is_table2(key):
                 label = f"Table 2: {label}"
             rows.append([f"{label}: SR / SPL / SNA (n = {s.get('n', '?')})",
                          " / ".join(_score(s, ci=False)), _paper(paper)])
@@ -326,7 +333,7 @@ def _table_rows(src, keys: Callable[[str], bool]) -> tuple[list, Source] | None:
 
 
 def table1(src) -> str | None:
-    got = _table_rows(src, lambda k: k not in ("kitchen_to_study", "study_to_kitchen"))
+    got = _table_rows(src, lambda k: not _is_table2(k))
     if got is None:
         return None
     rows, s = got
@@ -335,7 +342,7 @@ def table1(src) -> str | None:
 
 
 def table2(src) -> str | None:
-    got = _table_rows(src, lambda k: k in ("kitchen_to_study", "study_to_kitchen"))
+    got = _table_rows(src, _is_table2)
     if got is None or not got[0]:
         return None
     rows, s = got

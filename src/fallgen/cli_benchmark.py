@@ -361,7 +361,8 @@ def register(app: typer.Typer, console: Console) -> None:
                                             "scored: cpu or cuda.")] = "cpu",
         policy: Annotated[Optional[list[str]], typer.Option(
             "--policy", help="KIND=RUN (repeatable; KIND: dt, ppo, savi): score this trained "
-            "run (fallgen train) in Table 1, labelled with its training's budget.",
+            "run (fallgen train) in Table 1, or in Table 2 on the other room kind when it "
+            "learned on one alone (--room-kind), labelled with its training's budget.",
             show_default=False)] = None,
         data_dir: Annotated[Optional[Path], typer.Option(
             "--data-dir", help="World data the dataset was built with (default: built-in).",
@@ -369,8 +370,8 @@ def register(app: typer.Typer, console: Console) -> None:
     ) -> None:
         """The paper's Table 1 (random, the learned policies given, Object-Goal, the modular
         agent with the learned audio and visual modules and the paper's oracle ablations, the
-        expert) and Table 2 (the audio module learned on one room kind, tested on the other)
-        with 95 % intervals, into OUT/table.md; reruns keep what is done."""
+        expert) and Table 2 (the audio module, or a policy given, learned on one room kind,
+        tested on the other) with 95 % intervals, into OUT/table.md; reruns keep what is done."""
         from fallgen.cli_common import step_bars
         from fallgen.cli_train import policy_runs
         from fallgen.evaluation.table import make_table

@@ -157,7 +157,7 @@ def policy_runs(dataset: Path, specs: list[str]) -> list[PolicyRun]:
     if not specs:
         return []
     from fallgen.dataset.manifest import sha256 as file_sha256
-    from fallgen.evaluation.table_policies import PolicyRun, parse_policies
+    from fallgen.evaluation.table_policies import PolicyRun, check_distinct, parse_policies
 
     try:
         runs = parse_policies(specs)
@@ -171,10 +171,14 @@ def policy_runs(dataset: Path, specs: list[str]) -> list[PolicyRun]:
                          f"'fallgen[learn]' ({e})") from None
     digest = dataset_hash(dataset)
     out = []
-    for kind, run in runs.items():
+    for kind, run in runs:
         path = find_checkpoint(run)
         ck = load_checkpoint(path, kind, digest)
         out.append(PolicyRun(kind, path.resolve(), file_sha256(path), training_summary(ck)))
+    try:
+        check_distinct(out)
+    except ValueError as e:
+        raise InputError("<command line>", "--policy", str(e)) from None
     return out
 
 

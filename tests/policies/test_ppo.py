@@ -161,7 +161,7 @@ def test_the_table_scores_a_trained_run_beside_the_random_walk(tiny_dataset, tmp
     data = json.loads((out / "table.json").read_text())
     md = (out / "table.md").read_text()
     assert {"ppo", "random_oracle_found"} <= set(data["results"])
-    assert "PPO (oracle found) (16 environment steps, 0 min)" in md
+    assert "PPO (oracle found, 16 environment steps, 0 min)" in md
     assert "0.19 / 0.15 / 0.14" in md and "Random walk (oracle found)" in md
     assert data["policy_training"]["ppo"]["steps"] == 16
     row = [json.loads(x) for x in (out / "rows" / "ppo" / "episodes.jsonl").read_text()
@@ -182,7 +182,49 @@ def test_the_table_scores_a_trained_run_beside_the_random_walk(tiny_dataset, tmp
     assert json.loads(summary.read_text())["checkpoint_sha256"] != \
         data["policy_training"]["ppo"]["sha256"]
     capsys.readouterr()
-    for bad in ("ppo", f"sac={run}", f"dt={run}"):
-        assert cli(*args[:-1], bad) == 2
+    for bad in (("ppo",), (f"sac={run}",), (f"dt={run}",),
+                (f"ppo={run}", "--policy", f"ppo={run}")):
+        assert cli(*args[:-1], *bad) == 2
         err = capsys.readouterr().err.strip()
         assert len(err.splitlines()) == 1, err
+
+
+def test_a_run_of_one_room_kind_is_scored_on_the_other_in_table_2(tiny_dataset, tmp_path, cli,
+                                                                  capsys):
+    """``fallgen table --policy ppo=RUN`` with a run trained on the kitchens alone
+    (``--room-kind kitchen``): Table 2 gains its row on the study rooms' test episodes, beside
+    the run of both kinds on the same rooms;
+    two runs of one kind on the same rooms are refused in one line."""
+    import json
+
+    from fallgen.dataset.reader import Dataset
+
+    both, kitchen, kitchen2 = tmp_path / "both", tmp_path / "kitchen", tmp_path / "kitchen2"
+    assert cli("train", "ppo", str(tiny_dataset), "-o", str(both), "--budget", "16",
+               *SMALL) == 0
+    for run in (kitchen, kitchen2):
+        assert cli("train", "ppo", str(tiny_dataset), "-o", str(run), "--budget", "16",
+                   "--room-kind", "kitchen", *SMALL) == 0
+    out = tmp_path / "table"
+    args = ("table", str(tiny_dataset), "-o", str(out), "--trees", "5", "--workers", "1",
+            "--no-vision", "--episodes", "2", "--cross-episodes", "0")
+    assert cli(*args, "--policy", f"ppo={both}", "--policy", f"ppo={kitchen}") == 0
+    data = json.loads((out / "table.json").read_text())
+    assert {"ppo", "ppo_kitchen_to_study"} <= set(data["results"])
+    assert data["policy_training"]["ppo_kitchen_to_study"]["settings"]["room_kind"] == "kitchen"
+    assert data["policy_training"]["ppo"]["settings"]["room_kind"] is None
+
+    def ids(key):
+        rows = (out / "rows" / key / "episodes.jsonl").read_text().splitlines()
+        return [json.loads(x)["episode_id"] for x in rows]
+
+    study = {r["episode_id"] for r in Dataset(tiny_dataset).rows("test", "study")}
+    assert study and set(ids("ppo_kitchen_to_study")) == study
+    md = (out / "table.md").read_text()
+    table2 = md[md.index("## Table 2"):md.index("## The audio module")]
+    assert "PPO (oracle found, kitchen -> study, 16 environment steps, 0 min)" in table2
+    assert "study rooms, trained on both kinds" in table2
+    capsys.readouterr()
+    assert cli(*args, "--policy", f"ppo={kitchen}", "--policy", f"ppo={kitchen2}") == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "kitchen rooms" in err, err

@@ -44,8 +44,8 @@ from fallgen.evaluation.scores import (
     markdown_table,
     table_rows,
 )
-from fallgen.evaluation.table_policies import KINDS, POLICY_FACTORY, RANDOM_FACTORY, \
-    RANDOM_ORACLE, PolicyRun, budget, policy_lines
+from fallgen.evaluation.table_policies import KINDS, OTHER_KIND, POLICY_FACTORY, \
+    RANDOM_FACTORY, RANDOM_ORACLE, PolicyRun, budget, policy_lines
 from fallgen.evaluation.table_vision import failure_lines, vision_lines
 
 ROWS = "rows"
@@ -98,11 +98,25 @@ def rows_policies(policies: Sequence[PolicyRun] = ()) -> list[Row]:
     in the paper's order, labelled with its training's budget."""
     rows = [Row(RANDOM_ORACLE, "Random walk (oracle found)", "", factory=RANDOM_FACTORY,
                 kwargs=(("oracle_found", True),))]
-    for p in sorted(policies, key=lambda p: list(KINDS).index(p.kind)):
-        rows.append(Row(p.kind, f"{KINDS[p.kind]} ({budget(p.training)})", "",
-                        paper=_PAPER1[KINDS[p.kind]], factory=POLICY_FACTORY,
-                        kwargs=(("run", str(p.checkpoint)),), checkpoint_sha256=p.sha256))
+    for p in _in_order(p for p in policies if p.room_kind is None):
+        rows.append(_policy_row(p, "test", _PAPER1[KINDS[p.kind]]))
     return rows
+
+
+def _in_order(policies) -> list[PolicyRun]:
+    """The paper's order of kinds, then kitchens before study rooms."""
+    return sorted(policies, key=lambda p: (list(KINDS).index(p.kind), p.room_kind or ""))
+
+
+def _policy_row(p: PolicyRun, episodes: str, paper) -> Row:
+    """A trained run's row, labelled with its kind, where it learned and its budget:
+    'PPO (oracle found, kitchen -> study, 70 k environment steps, 38 min)'."""
+    name, extra = KINDS[p.kind], budget(p.training)
+    if p.room_kind is not None:
+        extra = f"{p.room_kind} -> {OTHER_KIND[p.room_kind]}, {extra}"
+    label = f"{name[:-1]}, {extra})" if name.endswith(")") else f"{name} ({extra})"
+    return Row(p.key, label, "", paper=paper, episodes=episodes, factory=POLICY_FACTORY,
+               kwargs=(("run", str(p.checkpoint)),), checkpoint_sha256=p.sha256)
 
 
 def rows_table1(policies: Sequence[PolicyRun] = ()) -> list[Row]:
@@ -129,9 +143,12 @@ def rows_table1(policies: Sequence[PolicyRun] = ()) -> list[Row]:
     ]
 
 
-def rows_table2() -> list[Row]:
-    """The cross-scene rows; their in-domain reference is Table 1's ``modular_audio_seg`` on
-    the same room kind (its audio model learned on both kinds)."""
+def rows_table2(policies: Sequence[PolicyRun] = ()) -> list[Row]:
+    """The cross-scene rows: the modular agent with its audio module learned on one room kind,
+    tested on the other (its in-domain reference: Table 1's ``modular_audio_seg`` on the same
+    room kind, its audio model learned on both kinds); then each trained policy given that
+    learned on one room kind alone, on the other kind's test episodes (its reference: the same
+    kind's Table 1 run on those rooms)."""
     seg = ("segmentation",)
     k2s, s2k = PAPER_TABLE2["kitchen_to_study"], PAPER_TABLE2["study_to_kitchen"]
     return [
@@ -139,6 +156,8 @@ def rows_table2() -> list[Row]:
             "kitchen", "study", paper=k2s[1:]),
         Row("study_to_kitchen", "study -> kitchen (audio learned on study rooms)", "modular",
             seg, "study", "kitchen", paper=s2k[1:]),
+        *(_policy_row(p, OTHER_KIND[p.room_kind], None)
+          for p in _in_order(p for p in policies if p.room_kind is not None)),
     ]
 
 
@@ -307,7 +326,7 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
     base_code = "+".join(code_digest(g) for g in AGENT_CODE)
     policy_code = base_code + "+" + "+".join(code_digest(g) for g in POLICY_CODE)
     run.policies = list(policies)
-    for row in rows_table1(policies) + rows_table2():
+    for row in rows_table1(policies) + rows_table2(policies):
         code = policy_code if row.factory == POLICY_FACTORY else base_code
         ids = chosen[row.episodes]
         if not ids or (row.model and models[row.model] is None) or \
@@ -350,8 +369,8 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
          "audio": run.audio, "vision": run.vision,
          "vision_training": {k: run.vision_meta[k] for k in VISION_TRAINING
                              if k in run.vision_meta},
-         "policy_training": {p.kind: {"checkpoint": str(p.checkpoint), "sha256": p.sha256,
-                                      **p.training} for p in run.policies},
+         "policy_training": {p.key: {"checkpoint": str(p.checkpoint), "sha256": p.sha256,
+                                     **p.training} for p in run.policies},
          "timings_s": {k: round(v, 1) for k, v in run.timings.items()}},
         indent=1, sort_keys=True) + "\n")
     write_text(out / "table.md", markdown(run))
@@ -423,23 +442,31 @@ def markdown(run: TableRun) -> str:
     lines += policy_lines(run.policies, run.results)
     lines += vision_lines(run.vision, run.vision_meta)
     lines += failure_lines(run.results, {r.key: r.label for r in rows_table1(run.policies)})
-    lines += ["",
-              "## Table 2 (cross-scene: the audio module learned on one room kind, tested on "
-              "the other; modular agent + audio + GT segmentation)", ""]
-    same = run.results.get("modular_audio_seg", {}).get("by_room_kind", {})
+    lines += ["", "## Table 2 (cross-scene: learned on one room kind, tested on the other)", "",
+              "The modular agent (audio module + GT segmentation) with its audio module "
+              "learned on one room kind, and the trained policies given that learned on one "
+              "room kind alone (`fallgen train --room-kind`). Under each row, the same agent "
+              "learned on both kinds: its Table 1 row on that row's room kind.", ""]
     table2 = []
-    for row in rows_table2():
+    for row in rows_table2(run.policies):
         if row.key not in run.results:
             continue
         table2.append(_result(run, row))
-        ref = same.get(row.episodes)
-        if ref:
-            table2.append((f"{row.episodes} rooms, audio learned on both kinds (Table 1's "
-                           f"row, its {row.episodes} episodes)", *(f"{ref[m]:.2f}" for m in
-                                                                   ("success", "spl", "sna")),
-                           "-", str(ref["n"]), "-"))
-    lines.append(markdown_table(table2, ("Test rooms, audio module", "SR [95 % CI]", "SPL",
-                                         "SNA", "paper (modular)", "episodes", "time")
+        refs = [("modular_audio_seg", "audio learned on both kinds")]
+        if row.factory == POLICY_FACTORY:
+            kind = next(p.kind for p in run.policies if p.key == row.key)
+            refs = [(kind, "trained on both kinds")] + \
+                ([(RANDOM_ORACLE, "the random walk with the oracle found")]
+                 if kind == "ppo" else [])
+        for key, what in refs:
+            ref = run.results.get(key, {}).get("by_room_kind", {}).get(row.episodes)
+            if ref:
+                table2.append((f"{row.episodes} rooms, {what} (Table 1's row, its "
+                               f"{row.episodes} episodes)", *(f"{ref[m]:.2f}" for m in
+                                                             ("success", "spl", "sna")),
+                               "-", str(ref["n"]), "-"))
+    lines.append(markdown_table(table2, ("Test rooms, agent", "SR [95 % CI]", "SPL", "SNA",
+                                         "paper SR / SPL / SNA", "episodes", "time")
                                 ).rstrip("\n"))
     lines += ["", "## The audio module on the test episodes", "",
               "| model on episodes | category top-1 / top-5 | material | azimuth err (deg) | "
