@@ -221,7 +221,7 @@ def train_on_env(kind: str, dataset: str | Path, run: Run, cfg: Mapping[str, Any
             cb = LoopCallback(run, log, save, int(cfg["checkpoint_every"]), deadline, update,
                               float(ck["wall_s"]) if ck else 0.0,
                               list(ck["window"]) if ck else [],
-                              int(ck["episodes"]) if ck else 0, f"{kind} on {dataset}",
+                              int(ck["episodes"]) if ck else 0, _title(kind, dataset, cfg),
                               on_update, progress, int(cfg["timesteps"]))
             remaining = int(cfg["timesteps"]) - model.num_timesteps
             if remaining > 0:
@@ -238,6 +238,12 @@ def train_on_env(kind: str, dataset: str | Path, run: Run, cfg: Mapping[str, Any
 
 def _extra_fields(on_update) -> tuple[str, ...]:
     return tuple(getattr(on_update, "fields", ()))
+
+
+def _title(kind: str, dataset, cfg: Mapping[str, Any]) -> str:
+    """A curve's title: the kind, the dataset and the rooms it learned on when not all."""
+    rooms = cfg.get("room_kind")
+    return f"{kind} on {dataset}" + (f" ({rooms} rooms)" if rooms else "")
 
 
 __all__ = ["OnPolicySettings", "LoopCallback", "train_on_env", "draw_curve", "FIELDS",
