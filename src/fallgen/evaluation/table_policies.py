@@ -5,11 +5,12 @@ rows, the floor the oracle found sets, and their section of ``table.md``.
 The table does not train policies (hours each: ``fallgen train``); it scores the runs it is
 given (``fallgen table --policy KIND=RUN``), each row labelled with what its training spent: a
 run trained on every room kind on Table 1's test episodes, a run trained on one room kind
-(``fallgen train --room-kind``) in Table 2, on the other kind's test episodes. A run is described by a :class:`PolicyRun`, made by the caller (the
-CLI reads the checkpoint and refuses one of another dataset), so this package does not import
-the policies'. PPO ends its episodes with the oracle found (the paper's rule: within 2 m and in
-view), which a random walk is also given in the row :data:`RANDOM_ORACLE` (the five moves drawn
-uniformly): that, not the plain random agent, is the floor PPO's row is compared with.
+(``fallgen train --room-kind``) in Table 2, on the other kind's test episodes. A run is
+described by a :class:`PolicyRun`, made by the caller (the CLI reads the checkpoint and refuses
+one of another dataset), so this package does not import the policies'. PPO ends its
+episodes with the oracle found (the paper's rule: within 2 m and in view), which a random walk
+is also given in the row :data:`RANDOM_ORACLE` (the five moves drawn uniformly): that, not the
+plain random agent, is the floor PPO's row is compared with.
 """
 
 from __future__ import annotations
