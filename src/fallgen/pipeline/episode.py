@@ -197,8 +197,10 @@ class EpisodeMaker:
             # rng, so the episode is the same in either order). Both searches of the expert
             # and the simulator's check ask about the same poses: the room renders each once
             # (the scene is static).
-            proofs = self._hidden.get(event.event_id)  # the cells digested only then
-            proven = proofs.get(settled.reachable_key(spawn)) if proofs else None
+            proofs = self._hidden.get(event.event_id)
+            # the spawn's cells digested only for an event proven hidden, or once it is
+            cells = settled.reachable_key(spawn) if proofs else None
+            proven = proofs.get(cells) if proofs else None
             if proven is not None:
                 raise Skip("no_path", proven)
             try:
@@ -206,7 +208,8 @@ class EpisodeMaker:
             except SearchLimit as e:  # not proven either way within the search's limits
                 raise Skip("search_limit", str(e)) from None
             except HiddenEverywhere as e:
-                cells = settled.reachable_key(spawn)
+                if not proofs:
+                    cells = settled.reachable_key(spawn)
                 if cells is not None:
                     self._hidden.setdefault(event.event_id, {})[cells] = str(e)
                 raise Skip("no_path", str(e)) from None
