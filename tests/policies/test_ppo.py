@@ -193,8 +193,8 @@ def test_a_run_of_one_room_kind_is_scored_on_the_other_in_table_2(tiny_dataset, 
                                                                   capsys):
     """``fallgen table --policy ppo=RUN`` with a run trained on the kitchens alone
     (``--room-kind kitchen``): Table 2 gains its row on the study rooms' test episodes, beside
-    the run of both kinds on the same rooms;
-    two runs of one kind on the same rooms are refused in one line."""
+    the run of both kinds on the same rooms; two runs of one kind on the same rooms are
+    refused in one line."""
     import json
 
     from fallgen.dataset.reader import Dataset
