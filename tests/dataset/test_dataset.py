@@ -229,6 +229,19 @@ def test_stats_counts_and_bias(tiny_build, tmp_path, cli):
         assert m["peak_db_spl_max"] == pytest.approx(max(r["audio_peak_db_spl"] for r in mine))
     ratios = [m["energy_ratio_p50"] for m in mats.values()]
     assert ratios == sorted(ratios, reverse=True)  # the most efficient radiators first
+    # each row names the surface its event's first impact struck, as the rehearsal recorded it
+    from fallgen.physics.events import from_table
+    events = {e.event_id: e for p in (base / "one" / "rehearsal").glob("*.parquet")
+              for e in from_table(pq.read_table(p))}
+    for r in rows:
+        impacts = sorted((c for c in events[r["event_id"]].contacts if c.kind == "impact"),
+                         key=lambda c: c.time_s)
+        assert r["first_impact_surface"] == impacts[0].material_other, r["event_id"]
+    hard = s["goals"]["energy_ratio_median_hard"]
+    assert hard["ok"] is None and hard["n"] == sum(
+        r["audio_material"] in {"metal", "glass", "ceramic", "stone", "wood_hard"}
+        and r["first_impact_surface"] in {"metal", "glass", "ceramic", "stone", "wood_hard"}
+        for r in rows)  # too few hard impacts in 6 episodes to judge
     rehearsed = sum(b["rehearsed_events"] for b in s["bias"].values())
     assert rehearsed == sum(pq.read_metadata(p).num_rows
                             for p in (base / "one" / "rehearsal").glob("*.parquet"))

@@ -71,9 +71,13 @@ COLUMNS: dict[str, tuple[str, str, str]] = {
     "fall_energy_lost_j": ("double", "J", "mechanical energy the fall loses in its contacts "
                            "(m g times the centre of mass's drop, plus the start's kinetic "
                            "energy)"),
-    "audio_energy_ratio": ("double", "", "audio_radiated_j / fall_energy_lost_j: impacts "
-                           "radiate ~1e-4 to 1e-2 of their energy; every build checks it "
-                           "against AUDIO_ENERGY_CEILING (fallgen stats)"),
+    "audio_energy_ratio": ("double", "", "audio_radiated_j / fall_energy_lost_j: hard impacts "
+                           "radiate ~1e-4 to 1e-2 of their energy, soft ones far less; every "
+                           "build checks it against AUDIO_ENERGY_CEILING (fallgen stats)"),
+    "first_impact_surface": ("string", "", "the material the fall's first impact struck (its "
+                             "audio material and finish: stone, wood_medium, fabric/rug...; "
+                             "empty without an impact): fallgen stats judges the energy "
+                             "ratio's median on hard objects' falls onto hard surfaces"),
     "room_rt60_s": ("list<double>[7]", "s", "the furnished room's reverberation time per "
                     "octave band, 125 Hz .. 8 kHz (Arau-Puchades over the walls and the "
                     "furniture's exposed faces: the clip's late reverb decays with it)"),

@@ -33,7 +33,7 @@ from fallgen.atomic import commit, fault_point, named
 from fallgen.dataset.integrity import Stamp, file_entry, record_path, tmp_name, write_record
 from fallgen.dataset.schema import COLUMNS
 from fallgen.nav.agent import ACTIONS
-from fallgen.physics.events import fall_height_m
+from fallgen.physics.events import fall_height_m, first_impact_surface
 
 GZIP = 4
 #: Arrays stored without compression: float32 audio is noise in its low mantissa bytes, so
@@ -94,6 +94,7 @@ def row_of(ep, split: str, media: str, index: int, root_seed: int,
         "audio_noise_db_a": ep.audio.noise_db_a,
         "audio_radiated_j": ep.energy.radiated_j, "fall_energy_lost_j": ep.energy.lost_j,
         "audio_energy_ratio": ep.energy.ratio,
+        "first_impact_surface": first_impact_surface(e.contacts),
         "room_rt60_s": list(ep.room_rt60_s),
         "sample_rate": ep.audio.sample_rate,
         "instance_labels": json.dumps(list(ep.view.instances)),

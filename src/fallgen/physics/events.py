@@ -73,6 +73,13 @@ def fall_height_m(contacts, vz0: float = 0.0) -> float:
     return -vz0 * t + 0.5 * GRAVITY * t * t
 
 
+def first_impact_surface(contacts) -> str:
+    """The material the fall's first impact struck (the contact's ``material_other``:
+    ``stone``, ``wood_medium``, ``fabric/rug``...; "" when it made no impact)."""
+    impacts = [c for c in contacts if c.kind == "impact"]
+    return min(impacts, key=lambda c: c.time_s).material_other if impacts else ""
+
+
 _V3 = pa.list_(pa.float64(), 3)
 _V4 = pa.list_(pa.float64(), 4)
 _OBJ = pa.struct([("category", pa.string()), ("variant", pa.string()),
