@@ -206,7 +206,7 @@ def test_validate_accounts_for_dropped_episodes(tiny_build, tmp_path):
 
 
 def test_stats_counts_and_bias(tiny_build, tmp_path, cli):
-    from fallgen.dataset.stats import stats
+    from fallgen.dataset.stats import HARD_MATERIALS, stats
 
     base, _ = tiny_build
     s = stats(base / "one")
@@ -239,8 +239,7 @@ def test_stats_counts_and_bias(tiny_build, tmp_path, cli):
         assert r["first_impact_surface"] == impacts[0].material_other, r["event_id"]
     hard = s["goals"]["energy_ratio_median_hard"]
     assert hard["ok"] is None and hard["n"] == sum(
-        r["audio_material"] in {"metal", "glass", "ceramic", "stone", "wood_hard"}
-        and r["first_impact_surface"] in {"metal", "glass", "ceramic", "stone", "wood_hard"}
+        r["audio_material"] in HARD_MATERIALS and r["first_impact_surface"] in HARD_MATERIALS
         for r in rows)  # too few hard impacts in 6 episodes to judge
     rehearsed = sum(b["rehearsed_events"] for b in s["bias"].values())
     assert rehearsed == sum(pq.read_metadata(p).num_rows

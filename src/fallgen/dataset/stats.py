@@ -44,11 +44,10 @@ GOALS = {"energy_ratio_ceiling": AUDIO_ENERGY_CEILING,
          # furnished dwellings' mid-frequency (500 Hz-1 kHz) reverberation time
          # (fallgen.audio.acoustics.RT60_GOAL_S, its sources there)
          "rt60_mid_s": RT60_GOAL_S}
-#: The hard impacts of :data:`GOALS`' energy median: a target of these audio materials whose
-#: first impact strikes one of these surfaces (a finish after "/" is no bare hard surface: a
-#: gypsum board, an appliance's sheet metal).
-HARD_OBJECTS = frozenset({"metal", "glass", "ceramic", "stone", "wood_hard"})
-HARD_SURFACES = frozenset({"metal", "glass", "ceramic", "stone", "wood_hard"})
+#: The hard impacts of :data:`GOALS`' energy median: a target of one of these audio materials
+#: whose first impact strikes a bare surface of one of them (a finish after "/" is no bare
+#: hard surface: a gypsum board, an appliance's sheet metal).
+HARD_MATERIALS = frozenset({"metal", "glass", "ceramic", "stone", "wood_hard"})
 PERCENTILES = (5, 25, 50, 75, 95)
 #: Goals about the distribution of the episodes, judged only on a build with at least this many
 #: (a smoke or demo build cannot meet them): a share of 1 % needs 100 episodes to be one
@@ -227,17 +226,16 @@ def goals(rows: list[dict]) -> dict:
     return g
 
 
-def _hard_median(rows: list[dict]) -> dict:
-    """The median energy ratio of the hard impacts (:data:`HARD_OBJECTS` onto
-    :data:`HARD_SURFACES`), over ``n`` of them; unknown (None) on a dataset without the
-    columns."""
+def _hard_median(rows: list[dict], ratio_known: bool) -> dict:
+    """The median energy ratio of the hard impacts (:data:`HARD_MATERIALS` onto them), over
+    ``n`` of them; unknown (None) on a dataset without the ratio (``ratio_known`` False) or
+    the first impact's surface."""
     lo, hi = GOALS["energy_ratio_median_hard"]
     bound = f"{lo:g}..{hi:g} (hard objects onto hard surfaces)"
-    if not rows or any("first_impact_surface" not in r or not np.isfinite(
-            r.get("audio_energy_ratio", np.nan)) for r in rows):
+    if not ratio_known or any("first_impact_surface" not in r for r in rows):
         return {"value": None, "bound": bound, "ok": None}
-    hard = [r["audio_energy_ratio"] for r in rows if r["audio_material"] in HARD_OBJECTS
-            and r["first_impact_surface"] in HARD_SURFACES]
+    hard = [r["audio_energy_ratio"] for r in rows if r["audio_material"] in HARD_MATERIALS
+            and r["first_impact_surface"] in HARD_MATERIALS]
     if not hard:
         return {"value": None, "n": 0, "bound": bound, "ok": None}
     med = float(np.median(hard))
@@ -247,16 +245,16 @@ def _hard_median(rows: list[dict]) -> dict:
 def _goals(rows: list[dict]) -> dict:
     g: dict[str, dict] = {}
     ratio = np.array([r.get("audio_energy_ratio", np.nan) for r in rows], float)
-    ok_ratio = ratio[np.isfinite(ratio)]
+    ratio_known = bool(len(ratio)) and bool(np.isfinite(ratio).all())
     ceiling = GOALS["energy_ratio_ceiling"]
-    if len(ok_ratio) == len(ratio) and len(ratio):
+    if ratio_known:
         above = int((ratio > ceiling).sum())
         g["energy_ratio_above_ceiling"] = {"value": above, "bound": f"0 above {ceiling:g}",
                                            "ok": above == 0}
     else:
         g["energy_ratio_above_ceiling"] = {"value": None, "bound": f"0 above {ceiling:g}",
                                            "ok": None}
-    g["energy_ratio_median_hard"] = _hard_median(rows)
+    g["energy_ratio_median_hard"] = _hard_median(rows, ratio_known)
     peak = np.array([r["audio_peak_db_spl"] for r in rows], float)
     if len(peak):
         lo, hi = GOALS["peak_db_spl"]
