@@ -134,10 +134,10 @@ def rigid_body_pressure(volume_m3: float, mass_kg: float, hits: list[ModalHit], 
     most of the sound of a non-resonant body (a cushion, a foam ball) and the click of a hard
     one. The force is sampled as the impulse each sample interval receives; the filter is the
     bilinear transform of P / F, prewarped at its corner omega_0 = sqrt(2) / tau."""
-    from scipy.signal import bilinear, lfilter
+    from scipy.signal import lfilter
 
-    force = force_signal(hits, n_out, sample_rate)
-    if not force.any():
+    force, first, stop = _pushed(hits, n_out, sample_rate)
+    if stop <= first:
         return force
     fs = float(sample_rate)
     a = (3.0 * volume_m3 / (4.0 * math.pi)) ** (1.0 / 3.0)
@@ -148,20 +148,67 @@ def rigid_body_pressure(volume_m3: float, mass_kg: float, hits: list[ModalHit], 
     warp = w0 / (2 * fs * math.tan(w0 / (2 * fs))) if w0 < 0.9 * math.pi * fs else 1.0
     tau_w = tau * warp
     # P / F = gain * 2 s / (tau^2 s^2 + 2 tau s + 2)
-    bz, az = bilinear([gain * 2.0, 0.0], [tau_w ** 2, 2.0 * tau_w, 2.0], fs)
-    return lfilter(bz, az, force)
+    bz, az = bilinear_2nd_order((gain * 2.0, 0.0), (tau_w ** 2, 2.0 * tau_w, 2.0), fs)
+    # the response dies away geometrically (as rho^n, rho the poles' radius): it is filtered
+    # until it is RIGID_TAIL_DB below its start after the last pushed sample, and is zero
+    # after (run on, the recursion would carry subnormal numbers, < 1e-307 Pa, to the end)
+    end = min(n_out, stop + decay_samples(az, RIGID_TAIL_DB))
+    out = np.zeros(n_out)
+    out[first:end] = lfilter(bz, az, force[first:end])
+    return out
+
+
+#: How far the rigid-body noise's filter is run down after the last pushed sample (dB): 600
+#: dB, 10^-30 of its level, is far under float64's resolution of anything it is mixed with.
+RIGID_TAIL_DB = 600.0
+
+
+def bilinear_2nd_order(b: tuple[float, float], a: tuple[float, float, float],
+                       fs: float) -> tuple[np.ndarray, np.ndarray]:
+    """The bilinear transform (s = 2 fs (1 - z^-1) / (1 + z^-1)) of the analogue filter
+    (b[0] s + b[1]) / (a[0] s^2 + a[1] s + a[2]): the digital (b, a), a[0] = 1, in closed
+    form (what ``scipy.signal.bilinear`` gives, without its polynomial objects)."""
+    k = 2.0 * fs
+    b1, b0 = b
+    a2, a1, a0 = a
+    num = np.array([b1 * k + b0, 2.0 * b0, b0 - b1 * k])
+    den = np.array([a2 * k * k + a1 * k + a0, 2.0 * (a0 - a2 * k * k),
+                    a2 * k * k - a1 * k + a0])
+    return num / den[0], den / den[0]
+
+
+def decay_samples(a: np.ndarray, drop_db: float) -> int:
+    """Samples in which the free response of the recursion with denominator ``a`` (second
+    order, a[0] = 1) falls by ``drop_db`` at its poles' radius (the polynomial factor of a
+    double pole is allowed for with a margin of twice the samples)."""
+    disc = a[1] * a[1] - 4.0 * a[2]
+    if disc < 0:  # complex pair: |p|^2 = a[2]
+        rho = math.sqrt(a[2])
+    else:
+        rho = max(abs(-a[1] + math.sqrt(disc)), abs(-a[1] - math.sqrt(disc))) / 2.0
+    if rho >= 1.0:
+        return 1 << 62
+    if rho <= 0.0:
+        return 2
+    return 2 * int(math.ceil(drop_db / 20.0 * math.log(10.0) / -math.log(rho))) + 2
 
 
 def force_signal(hits: list[ModalHit], n_out: int, sample_rate: int) -> np.ndarray:
     """The hits' half-sine force pulses (N; :meth:`ModalHit.force_pulses`), each sample the
     mean force over its interval (the impulse it receives times the rate: every pulse's impulse
     exactly, however short)."""
+    return _pushed(hits, n_out, sample_rate)[0]
+
+
+def _pushed(hits: list[ModalHit], n_out: int, sample_rate: int) -> tuple[np.ndarray, int, int]:
+    """:func:`force_signal`, and the samples its pulses touch: every force sample outside
+    [first, stop) is zero (first = stop = 0 when none is pushed)."""
     fs = float(sample_rate)
     force = np.zeros(n_out)
     pulses = [p for h in hits for p in h.force_pulses()
               if p[1] > 0 and int(round(p[0] * fs)) < n_out]
     if not pulses:
-        return force
+        return force, 0, 0
     i0 = np.array([int(round(t * fs)) for t, _, _ in pulses])
     J = np.array([j for _, j, _ in pulses])
     tc = np.maximum([d for _, _, d in pulses], 1e-9)
@@ -176,7 +223,7 @@ def force_signal(hits: list[ModalHit], n_out: int, sample_rate: int) -> np.ndarr
     at = i0[hit] + j
     ok = at < n_out
     np.add.at(force, at[ok], (end - start)[ok] * fs)
-    return force
+    return force, int(i0.min()), int(min(n_out, at.max() + 1))
 
 
 def plate_pressure(mass_per_area_kg_m2: float, hits: list[ModalHit], n_out: int,
@@ -279,7 +326,7 @@ SURFACE_LOWEST_HZ = 30.0
 
 
 #: Samples per block of the modal synthesis.
-BLOCK = 512
+BLOCK = 256
 #: After the last hit a mode is dropped once its amplitude is DECAY_FLOOR_DB below the peak
 #: amplitude of the body's loudest mode (so far): what is left is inaudible under the rest of the
 #: body's own sound, and a quiet mode need not ring out its whole decay.
@@ -287,16 +334,21 @@ PRUNE = 10 ** (-DECAY_FLOOR_DB / 20)
 
 
 def modal_sum(z: np.ndarray, c: np.ndarray, idx: np.ndarray, g: np.ndarray, n_out: int,
-              block: int = BLOCK) -> np.ndarray:
+              block: int = BLOCK, out: np.ndarray | None = None) -> np.ndarray:
     """sum_i c_i Im(sum_h g_hi z_i^(n - n_h)) over samples n >= n_h: damped sinusoids started
-    by impulses, computed block by block from each mode's complex state (one small matrix
-    product per block for all live modes; after the last hit a mode whose amplitude is
-    DECAY_FLOOR_DB below the loudest mode's peak is dropped).
+    by impulses, computed block by block from each mode's complex state (after the last hit a
+    mode whose amplitude is DECAY_FLOOR_DB below the loudest mode's peak is dropped).
+
+    A block with hits in it is one small matrix product per hit; the blocks where the modes
+    only ring on (between hits and after the last) are taken :data:`CHUNK` at a time, every
+    block's states from the one before (the same products, in the same order, as block by
+    block) and all their samples in one real matrix product.
 
     ``z``: (M,) per-sample complex factor e^((-d + i w_d) T); ``c``: (M,) output weights;
     ``idx``: (H,) start samples; ``g``: (H, M) gains (real: an impulse's modal velocities;
-    complex: a state, see :func:`render`)."""
-    out = np.zeros(n_out)
+    complex: a state, see :func:`render`); ``out``: (n_out,) the sum is added to it (and
+    returned); None: a new array."""
+    out = np.zeros(n_out) if out is None else out
     order = np.argsort(idx, kind="stable")
     idx, g = idx[order], g[order] * c[None, :]
     live = c != 0
@@ -306,49 +358,88 @@ def modal_sum(z: np.ndarray, c: np.ndarray, idx: np.ndarray, g: np.ndarray, n_ou
         return out
     Z = powers(z, block)  # (M, B): z^0 .. z^(B-1)
     zB = Z[:, -1] * z
+    # Im(s Z) = Re(s) Im(Z) + Im(s) Re(Z): the free blocks' samples as one real product
+    W = np.concatenate([Z.imag, Z.real])  # (2M, B)
     s = np.zeros(len(z), complex)  # state at the start of the block (already weighted by c)
     peak = np.zeros(len(z))
     h, H = 0, len(idx)
     b0 = int(idx[0]) // block * block
-    while h < H and b0 < n_out:  # blocks with hits in them
+    while h < H and b0 < n_out:
+        hit_block = int(idx[h]) // block * block
+        if hit_block > b0:  # blocks without a hit before the next one
+            s = _free_blocks(s, zB, W, out, b0, (hit_block - b0) // block, block, peak)
+            b0 = hit_block
+            continue
         L = min(block, n_out - b0)
         h1 = int(np.searchsorted(idx, b0 + L, side="left"))
         y = (s @ Z[:, :L]).imag
-        carry = 0.0
-        if h1 > h:
-            o = idx[h:h1] - b0
-            gh = g[h:h1]  # (m, M)
-            for j in range(h1 - h):
-                y[o[j]:] += (gh[j] @ Z[:, :L - o[j]]).imag
-            carry = (gh * (Z[:, block - o - 1].T * z[None, :])).sum(0)  # z^(block - o)
-            h = h1
-        out[b0:b0 + L] = y
+        o = idx[h:h1] - b0
+        gh = g[h:h1]  # (m, M)
+        for j in range(h1 - h):
+            y[o[j]:] += (gh[j] @ Z[:, :L - o[j]]).imag
+        carry = (gh * (Z[:, block - o - 1].T * z[None, :])).sum(0)  # z^(block - o)
+        h = h1
+        out[b0:b0 + L] += y
         s = s * zB + carry
         np.maximum(peak, np.abs(s), out=peak)
         b0 += block
     if b0 >= n_out:
         return out
     # After the last hit each mode only decays: its block count until it is DECAY_FLOOR_DB
-    # below the loudest mode's peak is known, so modes are sorted by it and each block sums a
-    # prefix of them.
+    # below the loudest mode's peak is known, so modes are sorted by it and each block sums
+    # those still alive.
     a = np.abs(s)
     thr = PRUNE * max(float(peak.max()), float(a.max()))
     with np.errstate(divide="ignore"):
         n_live = np.where(a > thr, np.ceil(np.log(thr / np.maximum(a, 1e-300))
                                            / np.log(np.abs(zB))), 0).astype(int)
     order = np.argsort(-n_live, kind="stable")
-    s, Z, zB, n_live = s[order], Z[order], zB[order], n_live[order]
-    k = 0
-    while b0 < n_out:
-        m = int(np.searchsorted(-n_live, -k, side="left"))  # modes with n_live > k
-        if m == 0:
-            break
-        L = min(block, n_out - b0)
-        out[b0:b0 + L] = (s[:m] @ Z[:m, :L]).imag
-        s[:m] *= zB[:m]
-        b0 += block
-        k += 1
+    s, zB, n_live = s[order], zB[order], n_live[order]
+    W = W.reshape(2, -1, block)[:, order].reshape(-1, block)
+    n_blocks = min(int(n_live.max(initial=0)), -(-(n_out - b0) // block))
+    _free_blocks(s, zB, W, out, b0, n_blocks, block, None, n_live)
     return out
+
+
+#: Free-ringing blocks of :func:`modal_sum` summed in one matrix product.
+CHUNK = 32
+
+
+def _free_blocks(s: np.ndarray, zB: np.ndarray, W: np.ndarray, out: np.ndarray, b0: int,
+                 n_blocks: int, block: int, peak: np.ndarray | None,
+                 n_live: np.ndarray | None = None) -> np.ndarray:
+    """Add ``n_blocks`` blocks of freely ringing modes to ``out`` from sample ``b0`` (as
+    far as it goes) and return the state after them. ``s``: (M,) the modes' states, ``zB``:
+    their factor over a block, ``W``: (2M, B) [Im; Re] of their powers over a block; ``peak``
+    (updated) takes every block's end state's magnitude; ``n_live`` (descending): mode i is
+    summed in the first n_live[i] blocks only."""
+    m = len(s)
+    for k0 in range(0, n_blocks, CHUNK):
+        a = b0 + k0 * block
+        if a >= len(out):
+            break
+        K = min(CHUNK, n_blocks - k0)
+        if n_live is not None:
+            m = int(np.searchsorted(-n_live, -k0, side="left"))  # modes with n_live > k0
+            if m == 0:
+                break
+        # the states at the start of each block and after the last: s, s zB, s zB^2, ...
+        S = np.empty((K + 1, m), complex)
+        S[0] = s[:m]
+        S[1:] = zB[:m]
+        np.multiply.accumulate(S, axis=0, out=S)
+        P = S[:K]
+        if n_live is not None:
+            P = np.where(np.arange(k0, k0 + K)[:, None] < n_live[None, :m], P, 0)
+        y = np.concatenate([P.real, P.imag], axis=1) @ np.concatenate(
+            [W[:m], W[len(s):len(s) + m]])
+        n = min(K * block, len(out) - a)
+        out[a:a + n] += y.ravel()[:n]
+        if peak is not None:
+            np.maximum(peak, np.abs(S[1:]).max(0), out=peak)
+        s = s.copy()
+        s[:m] = S[K]
+    return s
 
 
 def render(body: SoundingBody, hits: list[ModalHit], length_s: float,
@@ -379,8 +470,10 @@ def render(body: SoundingBody, hits: list[ModalHit], length_s: float,
                               * sample_rate)) for h in live])
     # hits share few points (a scrape's bumps all land on its contact point): one nearest-node
     # search per distinct point
-    pts, which = np.unique(np.array([h.point for h in live], float), axis=0, return_inverse=True)
-    nodes = m.nearest(pts)[which.ravel()]
+    first: dict[tuple[float, ...], int] = {}
+    which = [first.setdefault(tuple(np.asarray(h.point, float).ravel()), len(first))
+             for h in live]
+    nodes = m.nearest(np.array(list(first)))[which]
     n_dir = np.array([m.normal(nd) if h.direction is None else np.asarray(h.direction, float)
                       for nd, h in zip(nodes, live)])  # (H, 3)
     phi = m.shapes[nodes][:, :, keep].astype(float) * m.shape_factor  # (H, 3, n)
@@ -397,5 +490,5 @@ def render(body: SoundingBody, hits: list[ModalHit], length_s: float,
             g[k] = ringing_gains(q0[keep], v0[keep], wd, d)
     T = 1.0 / sample_rate
     z = np.exp((-d + 1j * wd) * T)
-    out += modal_sum(z, R / wd, idx, g, n_out)
+    modal_sum(z, R / wd, idx, g, n_out, out=out)
     return out
