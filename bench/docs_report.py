@@ -362,7 +362,11 @@ AUDIO_SCORES = (("category, top-1", "category_top1", "{:.3f}"),
                 ("position, median error", "position_median_error_m", "{:.2f} m"),
                 ("distance, rank correlation", "distance_rank_correlation", "{:.3f}"),
                 ("distance, rank correlation within a room (mean over room variants)",
-                 "distance_rank_correlation_within_room", "{:.3f}"))
+                 "distance_rank_correlation_within_room", "{:.3f}"),
+                ("distance told the room as the prior is, rank correlation",
+                 "distance_rank_correlation_told_room", "{:.3f}"),
+                ("distance told the room as the prior is, rank correlation within a room",
+                 "distance_rank_correlation_within_room_told_room", "{:.3f}"))
 
 
 def audio_module(src) -> str | None:

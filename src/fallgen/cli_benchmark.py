@@ -498,7 +498,9 @@ def register(app: typer.Typer, console: Console) -> None:
                          ("lateral_median_error_deg", "{:.1f}"),
                          ("front_back_confusion_rate", "{:.3f}"),
                          ("distance_rank_correlation", "{:.3f}"),
-                         ("distance_rank_correlation_within_room", "{:.3f}")):
+                         ("distance_rank_correlation_within_room", "{:.3f}"),
+                         ("distance_rank_correlation_told_room", "{:.3f}"),
+                         ("distance_rank_correlation_within_room_told_room", "{:.3f}")):
             cells = [scores.get(key), scores["prior"].get(key), scores["chance"].get(key)]
             table.add_row(key, *("" if v is None else fmt.format(v) for v in cells))
         console.print(table)

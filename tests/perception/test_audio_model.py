@@ -113,6 +113,17 @@ def test_relative_place():
     assert az == pytest.approx(-math.pi / 4)  # heading north, the object north-east: right
 
 
+def test_room_context_by_hand():
+    """What the room-centre prior knows, for a listener at (1, 1) in a 4 m x 6 m room facing
+    +y: the centre (2, 3) is sqrt(5) m away, at atan2(2, 1) - 90 degrees (to its right)."""
+    from fallgen.perception.audio_model import room_context_at
+
+    c = room_context_at((4.0, 6.0, 2.5), (1.0, 1.0), math.pi / 2)
+    az = math.atan2(2.0, 1.0) - math.pi / 2
+    assert c == pytest.approx([math.sqrt(5.0), math.cos(az), math.sin(az), 4.0, 6.0, 24.0])
+    assert c[2] < 0  # right of the heading
+
+
 def test_front_back_confusions_by_hand():
     """A reversal is an estimate across the ears' axis from the truth (front for back);
     sources within 15 degrees of the axis are not counted; the mirror image of every
@@ -200,6 +211,26 @@ def _check_scores(scores, model, ds, rows, train_rows, world):
         centre_err.append(_angle_deg(_truth_place(r, (lx / 2, ly / 2))[0], _truth_place(r)[0]))
     assert prior["azimuth_median_error_deg"] == pytest.approx(float(np.median(centre_err)),
                                                               abs=1e-6)
+    # the distance told the room: the model's prediction for each clip given where its agent
+    # stood in a room of that size, ranked against the truth; the prior, told the same, is
+    # the room's centre
+    from scipy.stats import spearmanr
+
+    from fallgen.perception.audio_model import room_context_at
+
+    told = [model.predict(ds.arrays(r, ("audio",))["audio"], room_context_at(
+        world.variant(r["room_variant"]).size_m, (r["spawn_x"], r["spawn_y"]),
+        r["spawn_yaw_rad"])).distance_m for r in rows]
+    true = [_truth_place(r)[1] for r in rows]
+    centre = [_truth_place(r, tuple(np.asarray(world.variant(r["room_variant"]).size_m[:2])
+                                    / 2))[1] for r in rows]
+    for key, est, d in (("distance_rank_correlation_told_room", told, scores),
+                        ("distance_rank_correlation", centre, prior),
+                        ("distance_rank_correlation_told_room", centre, prior)):
+        # (nan under 3 falls or a constant estimate: no ranking)
+        want = spearmanr(est, true).statistic if len(est) > 2 and len(set(est)) > 1 \
+            else float("nan")
+        assert d[key] == pytest.approx(want, abs=1e-9, nan_ok=True), key
 
 
 def test_train_and_eval_end_to_end(tiny_dataset, tmp_path, cli):

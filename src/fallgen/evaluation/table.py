@@ -250,6 +250,7 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
 
     # -- the audio models ----------------------------------------------------------------
     t0 = time.perf_counter()
+    world = load_world(data_dir)
     train_rows = ds.rows("train")
     features = dataset_features(ds, train_rows)
     X_train: np.ndarray | None = None
@@ -277,7 +278,7 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
             X_train = feature_matrix(ds, train_rows, features, _step(progress, "features",
                                                                      len(train_rows)))
         rows_k = [r for r, k in zip(train_rows, keep) if k]
-        m = AudioModel.train(ds, rows_k, seed=seed, trees=trees, X=X_train[keep])
+        m = AudioModel.train(ds, rows_k, seed=seed, trees=trees, X=X_train[keep], world=world)
         m.meta.update({"split": "train", "room_kind": kind, "dataset": str(ds.root)})
         m.save(path)
         loaded[name] = m
@@ -286,7 +287,6 @@ def make_table(dataset: str | Path, out: str | Path, *, episodes: int = 300,
 
     # -- the audio module's scores on the episodes each model is used on ------------------
     t0 = time.perf_counter()
-    world = load_world(data_dir)
     scored = (("all", "test", None), ("all", "kitchen", "kitchen"), ("all", "study", "study"),
               ("kitchen", "study", "study"), ("study", "kitchen", "kitchen"))
     for name, m in loaded.items():
@@ -470,9 +470,10 @@ def markdown(run: TableRun) -> str:
                                 ).rstrip("\n"))
     lines += ["", "## The audio module on the test episodes", "",
               "| model on episodes | category top-1 / top-5 | material | azimuth err (deg) | "
-              "lateral err (deg) | distance rank corr. (within a room) | position err (m) | "
+              "lateral err (deg) | distance rank corr. (within a room) | told the room: rank "
+              "corr. (within a room) | position err (m) | "
               "prior: top-1 / top-5, material, azimuth, lateral, rank corr. (within a room) |",
-              "|---|---|---|---|---|---|---|---|"]
+              "|---|---|---|---|---|---|---|---|---|"]
     for key, a in run.audio.items():
         p = a["prior"]
         lines.append(
@@ -481,6 +482,8 @@ def markdown(run: TableRun) -> str:
             f"{a['azimuth_median_error_deg']:.1f} | {a['lateral_median_error_deg']:.1f} | "
             f"{a['distance_rank_correlation']:.3f} "
             f"({a.get('distance_rank_correlation_within_room', float('nan')):.3f}) | "
+            f"{a.get('distance_rank_correlation_told_room', float('nan')):.3f} "
+            f"({a.get('distance_rank_correlation_within_room_told_room', float('nan')):.3f}) | "
             f"{a['position_median_error_m']:.2f} | "
             f"{p['category_top1']:.3f} / {p['category_top5']:.3f}, {p['material_top1']:.3f}, "
             f"{p['azimuth_median_error_deg']:.1f}, {p['lateral_median_error_deg']:.1f}, "

@@ -16,7 +16,9 @@ The model file (pickle through joblib: load only files you trust) holds the feat
 the label tables and the train split's manifest hash; a dataset whose clips differ from the
 features' (sample rate, length) is refused with a one-line error. Scored against a prior that
 does not listen: the train split's most frequent categories and material, and the room's
-centre as where the fall was.
+centre as where the fall was. That prior knows the room (its size and where the agent stands
+in it), which the clip alone does not; a second distance model is told the same
+(:func:`room_context`) beside the clip, so that what listening adds to it is measured.
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ from fallgen.errors import InputError
 from fallgen.dataset.manifest import manifest_sha256
 from fallgen.perception.audio_features import AudioFeatures, relative_place
 
-FORMAT = "fallgen-audio-model/1"
+FORMAT = "fallgen-audio-model/2"
 #: Distance bins (m) the scores are broken down by.
 DISTANCE_BINS_M = (0.0, 2.5, 3.5, 4.5, 100.0)
 
@@ -123,6 +125,9 @@ class AudioModel:
     place_model: object
     #: log distance from every feature (what the object is tells how loud it was)
     distance_model: object
+    #: log distance from every feature and the :func:`room_context` the room-centre prior
+    #: knows (the agent's place in the room and the room's size)
+    room_distance_model: object
     manifest_sha256: str = ""
     n_train: int = 0
     #: median error (m) of the position on the training set's out-of-bag predictions: the
@@ -134,9 +139,10 @@ class AudioModel:
     @staticmethod
     def train(ds, rows: Sequence[dict], seed: int = 0, trees: int = 300,
               progress: Callable[[int], None] | None = None,
-              X: np.ndarray | None = None) -> AudioModel:
+              X: np.ndarray | None = None, world=None) -> AudioModel:
         """Learn from ``rows`` of ``ds`` (``X``: their :func:`feature_matrix`, when it is
-        already at hand)."""
+        already at hand; ``world``: the dataset's world, for the rooms' sizes; None: the
+        packaged one)."""
         from sklearn.ensemble import ExtraTreesClassifier, ExtraTreesRegressor
         from sklearn.model_selection import KFold, cross_val_predict
         from threadpoolctl import threadpool_limits
@@ -160,6 +166,12 @@ class AudioModel:
         held = None
         with threadpool_limits(1, user_api="openmp"):  # one thread, as the trees above
             dist = distance_regressor(seed).fit(X, Y[:, 2])
+            if world is None:
+                from fallgen.world.library import load_world
+
+                world = load_world()
+            room_dist = distance_regressor(seed).fit(
+                np.hstack([X, room_context(rows, world)]), Y[:, 2])
             if len(rows) >= 10:  # the distance's held-out predictions: 5 folds
                 held = cross_val_predict(distance_regressor(seed), X, Y[:, 2],
                                          cv=KFold(5, shuffle=True, random_state=seed))
@@ -171,23 +183,33 @@ class AudioModel:
                 est = _positions(oob[ok])
                 true = _positions(Y[ok])
                 err = float(np.median(np.linalg.norm(est - true, axis=1)))
-        return AudioModel(features, cat, mat, reg, dist, manifest_sha256(ds.root) or "", len(rows),
-                          err, {"seed": seed, "trees": trees, "hrtf": ds.hrtf})
+        return AudioModel(features, cat, mat, reg, dist, room_dist,
+                          manifest_sha256(ds.root) or "", len(rows), err,
+                          {"seed": seed, "trees": trees, "hrtf": ds.hrtf})
 
     @property
     def hrtf(self) -> str | None:
         """What its training clips were heard with (None: not recorded)."""
         return self.meta.get("hrtf")
 
-    def predict_matrix(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def predict_matrix(self, X: np.ndarray, room: np.ndarray | None = None
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(category probabilities (N, C), material probabilities (N, M), places (N, 2):
-        azimuth rad, distance m)."""
+        azimuth rad, distance m). ``room``: (N, 6) :func:`room_context` of each clip: the
+        distance is then the room-told model's."""
         Y = self.place_model.predict(X[:, self.features.spatial])
+        if room is None:
+            dist = self.distance_model.predict(X)
+        else:
+            dist = self.room_distance_model.predict(np.hstack([X, room]))
         return (self.category_model.predict_proba(X), self.material_model.predict_proba(X),
-                np.column_stack([azimuth(Y), np.exp(self.distance_model.predict(X))]))
+                np.column_stack([azimuth(Y), np.exp(dist)]))
 
-    def predict(self, audio: np.ndarray) -> AudioPrediction:
-        cp, mp, place = self.predict_matrix(self.features.extract(audio)[None, :])
+    def predict(self, audio: np.ndarray, room: np.ndarray | None = None) -> AudioPrediction:
+        """What one clip tells; ``room``: its (6,) :func:`room_context` when the listener
+        knows the room (:func:`room_context_at`)."""
+        cp, mp, place = self.predict_matrix(self.features.extract(audio)[None, :],
+                                            None if room is None else np.reshape(room, (1, -1)))
         return AudioPrediction(tuple(self.category_model.classes_), cp[0],
                                tuple(self.material_model.classes_), mp[0],
                                float(place[0, 0]), float(place[0, 1]))
@@ -205,6 +227,7 @@ class AudioModel:
                      "category_model": self.category_model,
                      "material_model": self.material_model, "place_model": self.place_model,
                      "distance_model": self.distance_model,
+                     "room_distance_model": self.room_distance_model,
                      "manifest_sha256": self.manifest_sha256, "n_train": self.n_train,
                      "position_error_m": self.position_error_m, "meta": self.meta}, buf)
         write_bytes(Path(path), buf.getvalue())
@@ -231,11 +254,12 @@ class AudioModel:
                              f"{features.version}; this fallgen extracts version "
                              f"{AudioFeatures().version}: train it again")
         missing = [k for k in ("category_model", "material_model", "place_model",
-                               "distance_model") if k not in d]
+                               "distance_model", "room_distance_model") if k not in d]
         if missing:
             raise InputError(path, missing[0], "missing: train it again")
         return AudioModel(features, d["category_model"], d["material_model"], d["place_model"],
-                          d["distance_model"], d.get("manifest_sha256", ""),
+                          d["distance_model"], d["room_distance_model"],
+                          d.get("manifest_sha256", ""),
                           int(d.get("n_train", 0)), float(d.get("position_error_m", 1.0)),
                           dict(d.get("meta", {})))
 
@@ -342,6 +366,25 @@ def _within_room(rows: Sequence[dict], est: np.ndarray, true: np.ndarray) -> flo
     return float(np.mean(rho)) if rho else float("nan")
 
 
+def room_context_at(size_m: Sequence[float], agent_xy: Sequence[float],
+                    heading_rad: float) -> np.ndarray:
+    """(6,) what the room-centre prior knows of a listener in a room of ``size_m`` (x, y,
+    ...; its corner at the origin) standing at ``agent_xy`` facing ``heading_rad``: the
+    distance to the room's centre, the cosine and sine of its azimuth from the heading, the
+    room's two sides and its floor area."""
+    lx, ly = float(size_m[0]), float(size_m[1])
+    dx, dy = lx / 2 - float(agent_xy[0]), ly / 2 - float(agent_xy[1])
+    az = math.atan2(dy, dx) - heading_rad
+    return np.array([math.hypot(dx, dy), math.cos(az), math.sin(az), lx, ly, lx * ly])
+
+
+def room_context(rows: Sequence[dict], world) -> np.ndarray:
+    """(N, 6) :func:`room_context_at` of each row's spawn in its room variant."""
+    return np.array([room_context_at(world.variant(r["room_variant"]).size_m,
+                                     (r["spawn_x"], r["spawn_y"]), r["spawn_yaw_rad"])
+                     for r in rows], float).reshape(len(rows), 6)
+
+
 def room_centre_prior(rows: Sequence[dict], world) -> np.ndarray:
     """(N, 2) azimuth and distance of each room's centre from the agent: where a planner
     without audio would guess the fall was."""
@@ -374,6 +417,9 @@ def evaluate(model: AudioModel, ds, rows: Sequence[dict], train_rows: Sequence[d
     freq_m = [m for m, _ in Counter(r["audio_material"] for r in train_rows).most_common()]
     prior = room_centre_prior(rows, world)
     prior_az = angle_error_deg(prior[:, 0], true_place[:, 0])
+    told = np.exp(model.room_distance_model.predict(np.hstack([X, room_context(rows, world)])))
+    prior_rho = _spearman(prior[:, 1], true_place[:, 1])
+    prior_within = _within_room(rows, prior[:, 1], true_place[:, 1])
     scores = {
         "episodes": len(rows),
         "category_top1": _topk(cp, cats, truth_c, 1),
@@ -385,6 +431,10 @@ def evaluate(model: AudioModel, ds, rows: Sequence[dict], train_rows: Sequence[d
         "distance_rank_correlation": _spearman(place[:, 1], true_place[:, 1]),
         "distance_rank_correlation_within_room": _within_room(rows, place[:, 1],
                                                               true_place[:, 1]),
+        # told what the prior knows (the agent's place in the room, the room's size)
+        "distance_rank_correlation_told_room": _spearman(told, true_place[:, 1]),
+        "distance_rank_correlation_within_room_told_room": _within_room(rows, told,
+                                                                        true_place[:, 1]),
         "position_median_error_m": float(np.median(pos_err)),
         "chance": {"category_top1": 1 / max(len(cats), 1), "category_top5":
                    min(5, len(cats)) / max(len(cats), 1), "material_top1": 1 / max(len(mats), 1),
@@ -398,9 +448,10 @@ def evaluate(model: AudioModel, ds, rows: Sequence[dict], train_rows: Sequence[d
             "lateral_median_error_deg": float(np.median(_lateral_error_deg(
                 prior[:, 0], true_place[:, 0]))),
             "front_back_confusion_rate": _front_back_rate(prior[:, 0], true_place[:, 0]),
-            "distance_rank_correlation": _spearman(prior[:, 1], true_place[:, 1]),
-            "distance_rank_correlation_within_room": _within_room(rows, prior[:, 1],
-                                                                  true_place[:, 1]),
+            "distance_rank_correlation": prior_rho,
+            "distance_rank_correlation_within_room": prior_within,
+            "distance_rank_correlation_told_room": prior_rho,
+            "distance_rank_correlation_within_room_told_room": prior_within,
         },
     }
     top1 = np.asarray(cats)[np.argmax(cp, axis=1)] == np.asarray(truth_c)
