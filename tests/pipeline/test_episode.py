@@ -91,6 +91,25 @@ def test_episode_depends_only_on_its_id(maker, events, episodes):
     assert other.spawn != ep.spawn
 
 
+def test_an_episode_is_the_same_after_its_rooms_were_forgotten(maker, events, episodes):
+    """A worker moving on to the other room kind forgets this variant's rooms
+    (``retain_rooms``); made again from nothing, the episode is the same, byte for byte."""
+    ep = episodes[0]
+    i = next(k for k, e in enumerate(events) if e is ep.event)
+    assert maker.rooms_kept == {VARIANT}
+    maker.retain_rooms({VARIANT})  # its own kept
+    assert maker.rooms_kept == {VARIANT}
+    maker.retain_rooms({"study_loft-l1-m1"})
+    assert maker.rooms_kept == frozenset()
+    again = maker.make(ep.episode_id, events[i], 11)
+    assert maker.rooms_kept == {VARIANT}
+    assert again.spawn == ep.spawn
+    assert np.array_equal(again.audio.audio, ep.audio.audio)
+    assert np.array_equal(again.view.rgb, ep.view.rgb)
+    assert np.array_equal(again.view.depth, ep.view.depth)
+    assert again.expert.plan.actions == ep.expert.plan.actions
+
+
 def test_appearance_changes_only_the_colours(maker, world, events, episodes):
     """``appearance=True`` (textures, a shadow-casting light): the same episode (spawn,
     audio, expert), the same segmentation and depth (to float rounding) at step 0, and an RGB

@@ -184,6 +184,10 @@ def test_a_shard_accounts_for_the_time_of_attempts_given_up(tiny_build, tmp_path
     class GivesUp:
         labels = ("a",)
         calls = 0
+        kept: set[str] = set()
+
+        def retain_rooms(self, variant_ids):
+            self.kept = set(variant_ids)
 
         def make(self, *args, **kwargs):
             self.calls += 1
@@ -194,6 +198,8 @@ def test_a_shard_accounts_for_the_time_of_attempts_given_up(tiny_build, tmp_path
     maker = GivesUp()
     res = make_shard(None, maker, cfg, job, events, b.pools, tmp_path, trim=lambda: False)
     assert res.episodes == 0 and res.skips["no_path"] == maker.calls > 0
+    # the worker was told to keep only the rooms of the shard's events
+    assert maker.kept == {e.room_variant for e in events.values()}
     assert res.skips["episode_dropped"] == len(job.episodes)
     assert dict(res.timings_s) == pytest.approx(
         {"skipped:maps": 0.25 * maker.calls, "skipped:planning": 1.0 * maker.calls})

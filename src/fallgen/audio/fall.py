@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
+from collections.abc import Collection
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -218,6 +219,16 @@ class FallRenderer:
             mujoco.mj_forward(room.model, d)
             self._rooms[variant_id] = (room.model, d)
         return self._rooms[variant_id]
+
+    @property
+    def rooms_kept(self) -> frozenset[str]:
+        """The variants whose compiled rooms are kept."""
+        return frozenset(self._rooms)
+
+    def retain_rooms(self, variant_ids: Collection[str]) -> None:
+        """Forget the compiled rooms of every variant not in ``variant_ids``."""
+        for v in [v for v in self._rooms if v not in variant_ids]:
+            del self._rooms[v]
 
     def _floor_coverings(self, variant_id: str) -> frozenset[str]:
         """The ids of a variant's floor coverings (rugs): struck, the floor under them rings."""

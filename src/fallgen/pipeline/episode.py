@@ -28,6 +28,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from collections.abc import Collection
 from dataclasses import dataclass, field
 
 import mujoco
@@ -148,6 +149,26 @@ class EpisodeMaker:
         #: costliest part of an attempt given up)
         self._hidden: dict[str, dict[bytes, str]] = {}
         self._gl: GLContext | None = None  # one GL context for every episode's camera
+
+    def retain_rooms(self, variant_ids: Collection[str]) -> None:
+        """Forget what is kept per room variant (occupancy layers, drawn faces, acoustics, the
+        sound's compiled rooms, proofs for events) for every variant not in ``variant_ids``:
+        a worker moving on to the other room kind's shards does not carry the first kind's
+        rooms along (they are made again, the same, if it comes back)."""
+        keep = set(variant_ids)
+        for d in (self._room_samples, self._room_faces, self._rooms):
+            for v in [v for v in d if v not in keep]:
+                del d[v]
+        for e in [e for e in self._hidden if e.split("/", 1)[0] not in keep]:
+            del self._hidden[e]
+        self.sounds.retain_rooms(keep)
+
+    @property
+    def rooms_kept(self) -> frozenset[str]:
+        """The room variants something is kept for."""
+        return frozenset(self._room_samples) | frozenset(self._room_faces) \
+            | frozenset(self._rooms) | self.sounds.rooms_kept \
+            | frozenset(e.split("/", 1)[0] for e in self._hidden)
 
     def close(self) -> None:
         if self._gl is not None:
