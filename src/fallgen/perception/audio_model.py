@@ -198,12 +198,15 @@ class AudioModel:
         azimuth rad, distance m). ``room``: (N, 6) :func:`room_context` of each clip: the
         distance is then the room-told model's."""
         Y = self.place_model.predict(X[:, self.features.spatial])
-        if room is None:
-            dist = self.distance_model.predict(X)
-        else:
-            dist = self.room_distance_model.predict(np.hstack([X, room]))
         return (self.category_model.predict_proba(X), self.material_model.predict_proba(X),
-                np.column_stack([azimuth(Y), np.exp(dist)]))
+                np.column_stack([azimuth(Y), self.distance_m(X, room)]))
+
+    def distance_m(self, X: np.ndarray, room: np.ndarray | None = None) -> np.ndarray:
+        """(N,) distances (m) of the falls of the feature rows ``X``: the clip's model, or with
+        ``room`` ((N, 6) :func:`room_context`) the room-told one."""
+        if room is None:
+            return np.exp(self.distance_model.predict(X))
+        return np.exp(self.room_distance_model.predict(np.hstack([X, room])))
 
     def predict(self, audio: np.ndarray, room: np.ndarray | None = None) -> AudioPrediction:
         """What one clip tells; ``room``: its (6,) :func:`room_context` when the listener
@@ -385,15 +388,14 @@ def room_context(rows: Sequence[dict], world) -> np.ndarray:
                      for r in rows], float).reshape(len(rows), 6)
 
 
-def room_centre_prior(rows: Sequence[dict], world) -> np.ndarray:
+def room_centre_prior(rows: Sequence[dict], world,
+                      context: np.ndarray | None = None) -> np.ndarray:
     """(N, 2) azimuth and distance of each room's centre from the agent: where a planner
-    without audio would guess the fall was."""
-    out = []
-    for r in rows:
-        lx, ly, _ = world.variant(r["room_variant"]).size_m
-        fake = dict(r, settle_pos=(lx / 2, ly / 2, 0.0))
-        out.append(relative_place(fake))
-    return np.array(out, float)
+    without audio would guess the fall was (read off the rows' :func:`room_context`,
+    ``context`` when it is at hand)."""
+    c = room_context(rows, world) if context is None else context
+    return np.array([[math.atan2(sin, cos), d] for d, cos, sin in c[:, :3]],
+                    float).reshape(len(rows), 2)
 
 
 def evaluate(model: AudioModel, ds, rows: Sequence[dict], train_rows: Sequence[dict],
@@ -415,9 +417,10 @@ def evaluate(model: AudioModel, ds, rows: Sequence[dict], train_rows: Sequence[d
     pos_err = np.linalg.norm(_xy(place) - _xy(true_place), axis=1)
     freq_c = [c for c, _ in Counter(r["category"] for r in train_rows).most_common()]
     freq_m = [m for m, _ in Counter(r["audio_material"] for r in train_rows).most_common()]
-    prior = room_centre_prior(rows, world)
+    room = room_context(rows, world)
+    prior = room_centre_prior(rows, world, room)
     prior_az = angle_error_deg(prior[:, 0], true_place[:, 0])
-    told = np.exp(model.room_distance_model.predict(np.hstack([X, room_context(rows, world)])))
+    told = model.distance_m(X, room)
     prior_rho = _spearman(prior[:, 1], true_place[:, 1])
     prior_within = _within_room(rows, prior[:, 1], true_place[:, 1])
     scores = {
