@@ -94,6 +94,9 @@ def test_episode_depends_only_on_its_id(maker, events, episodes):
 def test_an_episode_is_the_same_after_its_rooms_were_forgotten(maker, events, episodes):
     """A worker moving on to the other room kind forgets this variant's rooms
     (``retain_rooms``); made again from nothing, the episode is the same, byte for byte."""
+    from fallgen.physics.events import event_variant
+
+    assert {event_variant(e.event_id) for e in events} == {VARIANT}  # what the ids name
     ep = episodes[0]
     i = next(k for k, e in enumerate(events) if e is ep.event)
     assert maker.rooms_kept == {VARIANT}

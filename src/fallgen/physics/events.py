@@ -64,6 +64,11 @@ class FallEvent:
 GRAVITY = 9.81  # m/s^2, MuJoCo's default (the scenes keep it)
 
 
+def event_variant(event_id: str) -> str:
+    """The room variant a rehearsed event's id names (ids are ``variant/zone/tNNNN``)."""
+    return event_id.split("/", 1)[0]
+
+
 def fall_height_m(contacts, vz0: float = 0.0) -> float:
     """How far the centre of mass falls before the first contact: v0z t + g t^2 / 2 down
     (free fall from the start; inf without any contact)."""

@@ -43,7 +43,7 @@ from fallgen.nav.agent import HEADINGS, VISIBLE_PIXELS, AgentSpec, Pose, run
 from fallgen.nav.expert import Expert, HiddenEverywhere, NoPath, SearchLimit
 from fallgen.nav.occupancy import OccupancyGrid
 from fallgen.physics.drop import instance_of, replay
-from fallgen.physics.events import FallEvent
+from fallgen.physics.events import FallEvent, event_variant
 from fallgen.pipeline.settled import SettledRoom
 from fallgen.vision.camera import WIDTH, EgoCamera, View, world_category_labels
 from fallgen.vision.faces import SceneFaces
@@ -159,7 +159,7 @@ class EpisodeMaker:
         for d in (self._room_samples, self._room_faces, self._rooms):
             for v in [v for v in d if v not in keep]:
                 del d[v]
-        for e in [e for e in self._hidden if e.split("/", 1)[0] not in keep]:
+        for e in [e for e in self._hidden if event_variant(e) not in keep]:
             del self._hidden[e]
         self.sounds.retain_rooms(keep)
 
@@ -168,7 +168,7 @@ class EpisodeMaker:
         """The room variants something is kept for."""
         return frozenset(self._room_samples) | frozenset(self._room_faces) \
             | frozenset(self._rooms) | self.sounds.rooms_kept \
-            | frozenset(e.split("/", 1)[0] for e in self._hidden)
+            | frozenset(event_variant(e) for e in self._hidden)
 
     def close(self) -> None:
         if self._gl is not None:

@@ -44,7 +44,7 @@ from fallgen.dataset.card import finalize
 from fallgen.dataset.schema import COLUMNS
 from fallgen.dataset.writer import ShardWriter, row_of, shard_meta, shard_name
 from fallgen.errors import InputError
-from fallgen.physics.events import FallEvent, from_table
+from fallgen.physics.events import FallEvent, event_variant, from_table
 from fallgen.physics.rehearse import rehearsal_dir
 from fallgen.pipeline.episode import EpisodeMaker, Skip
 from fallgen.pipeline.executor import ProcessUsage, parallel_map, process_usage, select_units
@@ -104,7 +104,7 @@ def load_events(cfg: BuildConfig, out: Path | None = None,
     given), sorted by id."""
     files = _rehearsal_files(cfg, out)
     if ids is not None:
-        variants = {i.split("/", 1)[0] for i in ids}
+        variants = {event_variant(i) for i in ids}
         files = [f for f in files if f.stem in variants]
         wanted = pa.array(sorted(ids), pa.string())
     events = []
@@ -396,7 +396,7 @@ def build_plan(cfg: BuildConfig, out: Path | None = None, world: World | None = 
     stamps = {}
     for j in jobs:
         tried = [[p.episode_id, p.split, p.room_kind, _attempts(p, pools)] for p in j.episodes]
-        variants = {e.split("/", 1)[0] for e in job_event_ids(j, pools)}
+        variants = {event_variant(e) for e in job_event_ids(j, pools)}
         stamps[j.name] = integrity.shard_stamp(world, common, j.name, tried, variants, shas)
     return Build(jobs, pools, stamps, shas, common)
 
