@@ -79,3 +79,32 @@ def test_vectorised_part_footprints_overlap_as_overlap2d():
         want = np.array([overlap2d(b, other) for b in boxes])
         assert np.allclose(got, want, rtol=0, atol=1e-12)
         assert ((got > 0) == (want > 0)).all()
+
+
+def test_box_set_gives_each_boxs_own_verdict_to_the_bit():
+    """Many rotated boxes at once say what any one of them says (Box.contains), on random
+    points and on points exactly on a face, a grown face and just beyond it."""
+    from fallgen.world.geometry import BoxSet
+
+    rng = np.random.default_rng(3)
+    boxes = [Box(tuple(rng.uniform(0, 4, 3)), tuple(rng.uniform(0.05, 0.8, 3)),
+                 float(rng.uniform(-math.pi, math.pi))) for _ in range(40)]
+    many = BoxSet(boxes)
+    checked = hits = 0
+    for _ in range(300):
+        pts = rng.uniform(-0.5, 4.5, (int(rng.integers(1, 12)), 3))
+        tol = float(rng.choice([0.0, 0.03, 0.2]))
+        want = any(b.contains(pts, tol).any() for b in boxes)
+        assert many.any_contains(pts, tol) == want
+        checked, hits = checked + 1, hits + want
+    assert 0 < hits < checked  # both verdicts were met
+    b = boxes[0]
+    one = BoxSet([b])
+    for tol in (0.0, 0.05):
+        for k in (1.0, np.nextafter(1.0, 2.0), 0.999):
+            # along the box's own x axis, at the face grown by tol (times k)
+            d = (b.half[0] + tol) * k
+            p = np.array([[b.center[0] + math.cos(b.yaw) * d, b.center[1] + math.sin(b.yaw) * d,
+                           b.center[2]]])
+            assert one.any_contains(p, tol) == bool(b.contains(p, tol)[0])
+    assert not BoxSet([]).any_contains(np.zeros((3, 3)))

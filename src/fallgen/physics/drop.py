@@ -22,6 +22,7 @@ from fallgen.physics.contacts import ContactEvent, ContactRecorder
 from fallgen.physics.events import GRAVITY, FallEvent, ObjectSpec, Placement, fall_height_m
 from fallgen.physics.settle import (SettleCriteria, SettleResult, mujoco_warnings,
                                    simulate_until_settled)
+from fallgen.world.geometry import BoxSet
 from fallgen.world.library import World
 from fallgen.world.objects import ObjectInstance
 from fallgen.world.rooms import RoomVariant, Zone
@@ -321,7 +322,7 @@ def _beside(rng: np.random.Generator, variant: RoomVariant, zone: Zone, r: float
     shelf's side panels, a wall cabinet: only the open side of a cavity will do). None when
     no side of ``BESIDE_TRIES`` does. ``slide``: whether the zone is entered sliding, as under
     a low cover (None: whether its cover is low)."""
-    parts = [p.box for _, p in variant.parts()]
+    parts = BoxSet([p.box for _, p in variant.parts()])
     low = _low_cover(zone, r) if slide is None else slide
     c, s = math.cos(zone.drop.yaw), math.sin(zone.drop.yaw)
     hx, hy = zone.drop.half[0], zone.drop.half[1]
@@ -348,7 +349,7 @@ def _beside(rng: np.random.Generator, variant: RoomVariant, zone: Zone, r: float
         u = np.linspace(0.0, 0.7, 10)[:, None]
         zs = z + (zone.volume.zmin + r - z) * u[:, 0] ** 2
         path = np.column_stack([x + (gx - x) * u[:, 0], y + (gy - y) * u[:, 0], zs])
-        if not any(b.contains(path, 0.5 * r).any() for b in parts):
+        if not parts.any_contains(path, 0.5 * r):
             dx, dy = gx - x, gy - y
             if low:
                 k = float(rng.uniform(0.4, 1.5)) / max(math.hypot(dx, dy), 1e-3)

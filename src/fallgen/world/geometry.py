@@ -95,6 +95,30 @@ class Box:
         return (math.cos(self.yaw / 2), 0.0, 0.0, math.sin(self.yaw / 2))
 
 
+class BoxSet:
+    """Many boxes at once: whether any of them holds any of some points, with the same
+    arithmetic as each box's :meth:`Box.contains` (so the same verdict, to the bit)."""
+
+    def __init__(self, boxes: list[Box]) -> None:
+        self.center = np.array([b.center for b in boxes], float).reshape(-1, 3)
+        self.half = np.array([b.half for b in boxes], float).reshape(-1, 3)
+        # math.cos and math.sin, as Box.to_local takes them (NumPy's may differ in the last bit)
+        self.cos = np.array([math.cos(b.yaw) for b in boxes], float)
+        self.sin = np.array([math.sin(b.yaw) for b in boxes], float)
+
+    def any_contains(self, points: np.ndarray, tol: float = 0.0) -> bool:
+        """Whether some box grown by ``tol`` holds some point of ``points`` (n, 3)."""
+        if not len(self.center):
+            return False
+        p = np.atleast_2d(np.asarray(points, float))[None, :, :] - self.center[:, None, :]
+        c, s = self.cos[:, None], self.sin[:, None]
+        x = c * p[..., 0] + s * p[..., 1]
+        y = -s * p[..., 0] + c * p[..., 1]
+        lim = self.half + tol
+        return bool(((np.abs(x) <= lim[:, 0:1]) & (np.abs(y) <= lim[:, 1:2])
+                     & (np.abs(p[..., 2]) <= lim[:, 2:3])).any())
+
+
 def overlap2d(a: Box, b: Box) -> float:
     """Penetration depth of the two footprints (> 0 overlapping, <= 0 separated by that gap)."""
     ca, cb = a.corners2d(), b.corners2d()
