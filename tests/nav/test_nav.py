@@ -357,6 +357,40 @@ def test_expert_goes_around_an_obstacle_and_scores_one():
     assert all(WALLED.free_for(p.xy[None], 0.2)[0] for p in o.poses)
 
 
+def test_the_second_search_takes_the_firsts_occlusion_verdicts(monkeypatch):
+    """Both searches of the expert ask about the same positions: a position the first found
+    hidden (``unseen``) is not asked about again by the fewest-actions search, and the
+    references are those of searches that ask afresh (which ask again about some)."""
+    from fallgen.nav.lattice import Lattice
+
+    target = (5.0, 1.0, 0.05)
+    start = Pose(2.0, 1.0, 0)
+    seen = _sight(target, WALLED)
+    searches: list[set] = []  # the hidden positions each search asked about
+    init = Lattice.__init__
+
+    def counted_init(self, **kw):
+        searches.append(set())
+        init(self, **kw)
+
+    def unseen(p):  # hidden from the far side's upper half, met on the way round
+        hidden = p.y > 1.5
+        if hidden:
+            searches[-1].add((round(p.x, 9), round(p.y, 9)))
+        return hidden
+
+    monkeypatch.setattr(Lattice, "__init__", counted_init)
+    e = expert(start, WALLED, target, _box(target), seen, unseen=unseen)
+    assert len(searches) == 2 and searches[0] and not searches[0] & searches[1]
+    searches.clear()
+    with monkeypatch.context() as m:
+        m.setattr(Lattice, "know_positions", lambda self, keys, vals: None)
+        fresh = expert(start, WALLED, target, _box(target), seen, unseen=unseen)
+    assert searches[0] & searches[1]  # without the hand-over, asked by both searches
+    assert (e.shortest_m, e.fewest_actions, e.plan) == \
+        (fresh.shortest_m, fresh.fewest_actions, fresh.plan)
+
+
 def test_expert_gives_up_within_its_limits_and_fails_cleanly():
     """Verdicts that never hold: the exact lattice never runs out (its positions are dense),
     so the search stops at its limits with SearchLimit (a NoPath)."""

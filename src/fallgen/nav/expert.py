@@ -130,7 +130,11 @@ class Limits:
 def _search(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray, spec: AgentSpec,
             move_cost: int, turn_cost: int, visible: Callable[[Pose], bool],
             limits: Limits, may_see: MaySee | None, unseen: Unseen | None,
-            sight: tuple | None, prove: bool) -> tuple[Plan, int]:
+            sight: tuple | None, prove: bool, known: list | None = None
+            ) -> tuple[Plan, int]:
+    """One A* search (see :class:`fallgen.nav.lattice.Lattice`); ``known``: a list that
+    carries the positions' occlusion verdicts from one search from ``start`` to the next
+    (read when it holds them, filled when the search ends)."""
     ok = grid.move_table(spec.radius_m)
     target_xy = np.asarray(target, float)[:2]
     tilt_cost = min(move_cost, turn_cost)
@@ -143,6 +147,8 @@ def _search(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray, spec:
                   tilt_max_deg=spec.tilt_max_deg, tilt_step_deg=spec.tilt_step_deg,
                   actions=(FORWARD, LEFT, RIGHT), max_actions=MAX_ACTIONS, sight=sight)
     lat.start(start.x, start.y, start.heading)
+    if known:
+        lat.know_positions(*known)
     confirmed: dict[int, int] = {}  # state -> its signed tilt steps, once rendered
     renders = 0
     prove = prove and sight is not None  # tried at most once, when the search grows long
@@ -188,6 +194,8 @@ def _search(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray, spec:
         moves = trace(lat.act, lat.parent, s)
         actions = moves + [UP if t > 0 else DOWN] * abs(t) + [FOUND]
         plan = Plan(tuple(actions), goal, moves.count(FORWARD) * STEP_M, renders)
+        if known is not None:
+            known[:] = lat.position_verdicts()
         return plan, total
 
 
@@ -209,10 +217,13 @@ def expert(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray,
     object (:data:`MaySee`, :data:`Unseen`); ``sight``: the occlusion bound's arrays
     (:attr:`fallgen.vision.sight.Occluders.kernel`), for the search to skip the positions it
     proves hidden without asking."""
+    # the second search asks about the same positions: the first one's occlusion verdicts
+    # are handed on (a position's verdict is the same whichever search asks)
+    known: list = []
     plan = plan_to_see(start, grid, target, corners, visible, spec, limits, may_see, unseen,
-                       sight)
+                       sight, known)
     fewest, total = _search(start, grid, target, corners, spec, 1, 1, visible, limits,
-                            may_see, unseen, sight, False)
+                            may_see, unseen, sight, False, known)
     if total != len(fewest.actions) or total > len(plan.actions):
         raise AssertionError(f"fewest-actions search: {total} actions, plan "
                              f"{len(fewest.actions)}, expert {len(plan.actions)}")
@@ -222,11 +233,13 @@ def expert(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray,
 def plan_to_see(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray,
                 visible: Callable[[Pose], bool], spec: AgentSpec = AgentSpec(),
                 limits: Limits = Limits(), may_see: MaySee | None = None,
-                unseen: Unseen | None = None, sight: tuple | None = None) -> Plan:
+                unseen: Unseen | None = None, sight: tuple | None = None,
+                known: list | None = None) -> Plan:
     """The expert's own plan from ``start`` (fewest forward moves, then fewest turns and
-    tilts; the first search of :func:`expert`), without the fewest-actions search."""
+    tilts; the first search of :func:`expert`), without the fewest-actions search.
+    ``known``: filled with the search's position verdicts (see :func:`_search`)."""
     plan, _ = _search(start, grid, target, corners, spec, 1000, 1, visible, limits, may_see,
-                      unseen, sight, True)
+                      unseen, sight, True, known)
     if len(plan.actions) > MAX_ACTIONS:
         raise NoPath(f"the shortest plan takes {len(plan.actions)} actions, more than "
                      f"{MAX_ACTIONS}")

@@ -190,6 +190,19 @@ def rehash(hkeys, hval, size):
 
 
 @njit(cache=True)
+def _enter_positions(hkeys, hval, keys, vals):
+    """Enter position verdicts (``keys`` from :func:`position_key`, ``vals`` -1 or -2) not in
+    the table yet; how many were new."""
+    new = 0
+    for i in range(len(keys)):
+        j = _slot(hkeys, keys[i])
+        if hkeys[j] != keys[i]:
+            hkeys[j], hval[j] = keys[i], vals[i]
+            new += 1
+    return new
+
+
+@njit(cache=True)
 def _reach(cost, x1, y1, parent, action, lat, g, px, py, par, act, nact, closed, hkeys,
            hval, oheap, counts, fp, ip, move_cost):
     """Offer state (lattice coordinates ``lat``, heading) at ``cost`` from ``parent``."""
@@ -435,6 +448,26 @@ class Lattice:
         if self._hkeys[j] != key:
             self._counts[C_USED] += 1
         self._hkeys[j], self._hval[j] = key, -1
+
+    def position_verdicts(self) -> tuple[np.ndarray, np.ndarray]:
+        """The positions this search has judged (keys, and -1: the object hidden from there,
+        -2: it may be seen): for another search from the same start, whose lattice keys the
+        same positions alike (:meth:`know_positions`)."""
+        m = self._hkeys < -1
+        return self._hkeys[m].copy(), self._hval[m].copy()
+
+    def know_positions(self, keys: np.ndarray, vals: np.ndarray) -> None:
+        """Take the position verdicts of an earlier search from the same start pose
+        (:meth:`position_verdicts`): its occlusion proofs are not made again."""
+        need = int(self._counts[C_USED]) + len(keys) + 4
+        size = len(self._hkeys)
+        while 10 * need > 7 * size:
+            size *= 2
+        if size != len(self._hkeys):
+            self._hkeys, self._hval = rehash(self._hkeys, self._hval, size)
+        self._counts[C_USED] += _enter_positions(self._hkeys, self._hval,
+                                                 np.asarray(keys, np.int64),
+                                                 np.asarray(vals, np.int32))
 
     def heading(self, state: int) -> int:
         return int(self.coords[state, 4])
