@@ -248,3 +248,27 @@ def test_covered_zones_are_reached_by_real_falls(world, tmp_path):
                 assert not zone.drop.contains(np.array([e.start_pos]), 1e-6)[0], e.event_id
                 assert e.start_pos[2] >= zone.drop.zmax + COVER_CLEARANCE_M, e.event_id
     assert started_beside > 0  # some fell from outside their zone's cavity
+
+
+def test_a_trial_given_up_before_its_fall_settles_no_distractors(world, monkeypatch):
+    """A shelf trial with no start beside the zone (does_not_fit) draws its distractors (the
+    draws of later trials do not depend on it) but compiles no scene to settle them; a trial
+    that falls settles them first, then drops the target (two scenes)."""
+    from fallgen.physics import drop
+
+    cfg = BuildConfig(2022, Path("."), RehearseConfig(), Path("cfg.toml"))
+    v = world.variant("kitchen_dining-l1-m1")
+    zone = v.zone("z13")
+    assert zone.kind == "shelf" and zone.distractors > 0
+    compiled = []
+    build = drop.build_scene
+    monkeypatch.setattr(drop, "build_scene", lambda *a, **k: compiled.append(1) or build(*a, **k))
+    out = drop.run_trial(world, v, zone, 1, cfg.rehearse, cfg.root_seed)
+    assert out.reason == "does_not_fit" and out.category and compiled == []
+    for trial in range(2, 12):
+        compiled.clear()
+        out = drop.run_trial(world, v, zone, trial, cfg.rehearse, cfg.root_seed)
+        if out.reason not in ("does_not_fit", "start_overlap"):
+            assert len(compiled) == 2, (trial, out.reason)
+            return
+    raise AssertionError("no trial of the zone fell")

@@ -108,8 +108,9 @@ def _occluders(world: World, zone: Zone, rng: np.random.Generator) -> list[Place
     return out
 
 
-def _settle_distractors(world: World, variant: RoomVariant, zone: Zone, target_cid: str,
-                        occluders: list[Placement], rng: np.random.Generator) -> list[Placement]:
+def _draw_distractors(world: World, zone: Zone, target_cid: str, rng: np.random.Generator
+                      ) -> list[PlacedObject]:
+    """The zone's distractors, drawn (objects and start poses above the zone, stacked)."""
     if zone.distractors == 0:
         return []
     lib = world.categories
@@ -123,6 +124,16 @@ def _settle_distractors(world: World, variant: RoomVariant, zone: Zone, target_c
         if z + r > zone.drop.zmax:
             break
         objs.append(PlacedObject(f"d{k}", inst, (x, y, z), _uniform_quat(rng)))
+    return objs
+
+
+def _settle_distractors(world: World, variant: RoomVariant, objs: list[PlacedObject],
+                        occluders: list[Placement]) -> list[Placement]:
+    """Where the drawn distractors ``objs`` come to rest among the occluders (they are
+    dropped together and frozen when calm); none if the simulation fails. Draws nothing: a
+    trial settles them only once it has drawn all it draws and knows it will fall."""
+    if not objs:
+        return []
     statics = [PlacedObject(f"o{k}", instance_of(world, p.object), p.pos, p.quat, free=False)
                for k, p in enumerate(occluders)]
     scene = build_scene(variant, world.materials, objs + statics, settings=PHYSICS)
@@ -236,7 +247,7 @@ def run_trial(world: World, variant: RoomVariant, zone: Zone, trial: int,
     cid = cands[int(rng.integers(len(cands)))]
     target = lib.sample(rng, cid)
     occluders = _occluders(world, zone, rng)
-    distractors = _settle_distractors(world, variant, zone, cid, occluders, rng)
+    drawn = _draw_distractors(world, zone, cid, rng)
     r = _radius(target)
     x, y = _xy(rng, zone, r)
     # high enough to fall min_fall_m onto the zone's support
@@ -270,6 +281,8 @@ def run_trial(world: World, variant: RoomVariant, zone: Zone, trial: int,
               float(rng.normal(0, cfg.push_speed_mps)) + throw[1], 0.0)
     angvel = tuple(float(a) for a in rng.normal(0, cfg.spin_radps, 3))
     start = (float(x), float(y), z)
+    # settled only now: a trial given up above (no start beside the zone) needs no distractors
+    distractors = _settle_distractors(world, variant, drawn, occluders)
     objs = scene_objects(world, target, start, quat, distractors, occluders)
     res, contacts, com, mass, overlap, _ = _simulate(
         world, variant, objs, linvel, angvel, cfg.settle, floor_z=zone.volume.zmin)
