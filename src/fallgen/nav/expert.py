@@ -53,8 +53,11 @@ MAX_VISIBILITY_CHECKS = 1000
 #: Lattice states one search may enter before it gives up (about 80 bytes each).
 MAX_STATES = 2_000_000
 #: A search that enters this many states or asks this many verdicts tries the proof that no
-#: reachable pose sees the object (most searches end sooner; the proof costs ~0.01-1 s).
-PROOF_AFTER_STATES, PROOF_AFTER_VERDICTS = 50_000, 50
+#: reachable pose sees the object (most searches end sooner; the proof costs ~0.01-1 s). The
+#: lattice counts its states when its tables grow: the first time at 16 381 states. (On a
+#: 250-episode slice of the paper-size configuration, 10 000 instead of 50 000 made the same
+#: bytes, the 38 attempts given up 20 % faster, the episodes' planning no slower.)
+PROOF_AFTER_STATES, PROOF_AFTER_VERDICTS = 10_000, 50
 
 
 @dataclass(frozen=True)
