@@ -158,6 +158,20 @@ def coplanar_pairs(t: np.ndarray, n: np.ndarray, group: np.ndarray | None = None
     return partner
 
 
+def unique_rows(a: np.ndarray) -> np.ndarray:
+    """``np.unique(a, axis=0)`` of an (N, 3) float array, the same rows in the same order, by
+    one lexicographic sort of the columns (~5x faster for a mesh's few hundred vertices).
+    Rows equal as numbers but not as bits (a zero of either sign, NaN) are left to NumPy,
+    whose sort keeps one of them by its own order."""
+    a = np.ascontiguousarray(a)
+    if not len(a) or np.isnan(a).any() or np.signbit(a[a == 0]).any():
+        return np.unique(a, axis=0)
+    s = a[np.lexsort((a[:, 2], a[:, 1], a[:, 0]))]
+    new = np.ones(len(s), bool)
+    new[1:] = (s[1:] != s[:-1]).any(1)
+    return s[new]
+
+
 def _round(model: mujoco.MjModel, g: int) -> bool:
     return int(model.geom_type[g]) in (mujoco.mjtGeom.mjGEOM_SPHERE,
                                        mujoco.mjtGeom.mjGEOM_ELLIPSOID,
@@ -260,7 +274,7 @@ class SceneFaces:
                 continue
             r = float(model.geom_rbound[g]) if _round(model, g) else -1.0
             solid = -1
-            v = np.unique(t.reshape(-1, 3), axis=0)
+            v = unique_rows(t.reshape(-1, 3))
             if int(model.geom_type[g]) != mujoco.mjtGeom.mjGEOM_MESH or is_convex(
                     t, n, v, 1e-9 * (1.0 + float(np.abs(v).max()))):
                 solid = len(verts)
