@@ -17,7 +17,7 @@ from fallgen.pipeline.settled import target_points
 from fallgen.vision.camera import EgoCamera
 from fallgen.vision.cover import convex_hull, covered
 from fallgen.vision.faces import SceneFaces
-from fallgen.vision.sight import Occluders, near_distance
+from fallgen.vision.sight import Occluders, Sight, gnomonic_frame, near_distance
 from fallgen.world.scene import LOOK, PlacedObject, build_scene
 
 
@@ -76,6 +76,30 @@ def test_a_crack_between_two_faces_is_not_covered():
     for gap, want in ((1e-6, False), (0.0, True)):
         right = np.array([[gap, -1], [1, -1], [1, 1], [gap, 1]], float)
         assert _cover(g, [left, right]) is want
+
+
+def _square_sight(extra: np.ndarray | None = None) -> Sight:
+    """A sight of one square piece (+-0.05 tangent units, +-7.5 pixels) straight ahead of an
+    eye at the origin looking along +x; ``extra``: a vertex put in after the second corner."""
+    eye = np.zeros(3)
+    frame = gnomonic_frame(eye, np.array([[1.0, 0.0, 0.0]]))
+    sq = [(-0.05, -0.05), (0.05, -0.05), (0.05, 0.05), (-0.05, 0.05)]
+    if extra is not None:
+        sq.insert(2, tuple(extra))
+    xs, ys = np.zeros((1, 16)), np.zeros((1, 16))
+    xs[0, :len(sq)], ys[0, :len(sq)] = zip(*sq)
+    return Sight(eye, frame, (xs, ys, np.array([len(sq)], np.int64)))
+
+
+def test_a_vertex_repeated_up_to_rounding_cuts_nothing_from_the_count():
+    """A piece of the subtraction can hold a vertex twice, the copies apart by rounding; the
+    line through them points anywhere. Here it is the square's diagonal: counted as a side,
+    it would drop half the square's pixels."""
+    clean = _square_sight().max_pixels(0.0, 0.0, 300, 90.0, 10 ** 6)
+    assert 15 * 15 <= clean <= 17 * 17
+    # the second corner again, 1e-13 along the other diagonal (in the image: (-1, 1))
+    twin = _square_sight(np.array([0.05, -0.05]) + 1e-13 * np.array([-1.0, 1.0]))
+    assert twin.max_pixels(0.0, 0.0, 300, 90.0, 10 ** 6) == clean
 
 
 def test_the_renderer_culls_back_faces():
@@ -152,3 +176,52 @@ def test_no_view_from_a_hidden_eye_shows_the_object(world, variant_id):
             camera.close()
     assert hidden >= 10 and hidden >= 0.5 * blind, (hidden, blind)
     assert refuted >= 1
+
+
+def test_no_view_shows_more_pixels_than_the_bound(world):
+    """From random eyes near the object in each fall zone, the views towards it (two
+    headings, five tilts) rendered in full: none shows more of the object than
+    :meth:`Sight.max_pixels` allows (the bound the expert skips renders by, counted without
+    a cap), many show some of it, and a wrong proof's bound falls short somewhere."""
+    world_ = world
+    rng = np.random.default_rng(11)
+    v = world_.variant("kitchen_lshape-l1-m1")
+    lx, ly, _ = v.size_m
+    jug = world_.categories.instance("jug", "glass", "glass")
+    spec = AgentSpec()
+    views = shown = short = 0
+    for zone in v.zones[1::2]:
+        c = zone.volume.center
+        pos = (float(c[0]), float(c[1]), float(zone.volume.zmin) + 0.08)
+        scene = build_scene(v, world_.materials, [PlacedObject("target", jug, pos, free=False)],
+                            settings=LOOK)
+        d = scene.data()
+        mujoco.mj_forward(scene.model, d)
+        points = target_points(scene, d)
+        others = SceneFaces(scene.model, d, [g for g in range(scene.model.ngeom)
+                                             if scene.geom_owner[g] != "obj:target"])
+        occ = Occluders([others], points, near_distance(scene.model))
+        wrong = Occluders([others], points, near_distance(scene.model), behind_m=-10.0)
+        camera = EgoCamera(scene, {"target": "jug"}, spec)
+        try:
+            for _ in range(10):
+                x, y = rng.uniform(0.2, lx - 0.2), rng.uniform(0.2, ly - 0.2)
+                if math.hypot(x - pos[0], y - pos[1]) > 2.0:
+                    continue
+                eye = np.array([x, y, spec.camera_height_m])
+                sight, bad = occ.look(eye), wrong.look(eye)
+                face = round(math.degrees(math.atan2(pos[1] - y, pos[0] - x)) / 30)
+                for h in {face % 12, (face + 1) % 12}:
+                    for t in range(-60, 61, 30):
+                        p = Pose(x, y, h, t)
+                        yaw, tilt = p.yaw_rad, math.radians(t)
+                        pixels = camera.pixels_of(d, p)
+                        bound = sight.max_pixels(yaw, tilt, camera.frames.size, 90.0, 10 ** 6)
+                        assert pixels <= bound, (zone.id, x, y, h, t, pixels, bound)
+                        views += 1
+                        shown += pixels > 0
+                        short += pixels > bad.max_pixels(yaw, tilt, camera.frames.size, 90.0,
+                                                         10 ** 6)
+        finally:
+            camera.close()
+    assert views >= 200 and shown >= 20 and short >= 1, (views, shown, short)
