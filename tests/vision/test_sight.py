@@ -15,7 +15,7 @@ import shapely
 from fallgen.nav.agent import AgentSpec, Pose
 from fallgen.pipeline.settled import target_points
 from fallgen.vision.camera import EgoCamera
-from fallgen.vision.cover import convex_hull, covered
+from fallgen.vision.cover import MAX_VERTICES, convex_hull, covered, extents_polygon
 from fallgen.vision.faces import SceneFaces
 from fallgen.vision.sight import Occluders, Sight, gnomonic_frame, near_distance
 from fallgen.world.scene import LOOK, PlacedObject, build_scene
@@ -66,6 +66,26 @@ def test_cover_agrees_with_shapely():
         assert got == want, trial
         verdicts.append(got)
     assert 0.2 < np.mean(verdicts) < 0.8
+
+
+def test_the_extents_polygon_touches_each_extent_pushed_out_by_the_margin():
+    """For random point sets: along each of the 2 x 16 directions the polygon reaches exactly
+    the points' farthest extent plus the margin (its side lies there), and it holds every
+    point with at least the margin to spare."""
+    rng = np.random.default_rng(12)
+    sides, margin = 16, 2e-4
+    ang = np.pi * np.arange(2 * sides) / sides
+    d = np.column_stack([np.cos(ang), np.sin(ang)])
+    for _ in range(100):
+        n = int(rng.integers(1, 700))
+        pts = rng.normal(size=(n, 2)) * rng.choice([1e-3, 0.05, 1.0])
+        hx, hy = np.empty(MAX_VERTICES), np.empty(MAX_VERTICES)
+        m = extents_polygon(pts[:, 0].copy(), pts[:, 1].copy(), n, sides, margin, hx, hy)
+        poly = np.column_stack([hx[:m], hy[:m]])
+        reach = (pts @ d.T).max(0) + margin
+        scale = 1.0 + np.abs(pts).max()
+        np.testing.assert_allclose((poly @ d.T).max(0), reach, rtol=0, atol=1e-12 * scale)
+        assert shapely.Polygon(poly).buffer(-margin * 0.999).contains(shapely.multipoints(pts))
 
 
 def test_a_crack_between_two_faces_is_not_covered():
