@@ -245,3 +245,65 @@ def test_no_view_shows_more_pixels_than_the_bound(world):
         finally:
             camera.close()
     assert views >= 200 and shown >= 20 and short >= 1, (views, shown, short)
+
+
+def test_a_box_called_beside_the_image_box_projects_wholly_beyond_it():
+    """The early test that drops a solid before projecting its vertices: every point of a box
+    it calls beside the object's image box (random boxes, eyes and image boxes) has its image
+    beyond one side of the box, or lies behind the eye; and it drops a good share of them."""
+    from fallgen.vision.sight import _box_beside
+
+    rng = np.random.default_rng(13)
+    beside = 0
+    for _ in range(2000):
+        eye = rng.uniform(-1, 1, 3)
+        w, p, q = gnomonic_frame(eye, rng.uniform(-3, 3, (8, 3)))
+        lo = rng.uniform(-3, 3, 3)
+        hi = lo + rng.uniform(0.01, 1.0, 3)
+        x0, y0 = rng.uniform(-0.5, 0.3, 2)
+        box = np.array([x0, y0, x0 + rng.uniform(0.01, 0.3), y0 + rng.uniform(0.01, 0.3)])
+        if not _box_beside(lo, hi, eye, w, p, q, box):
+            continue
+        beside += 1
+        pts = lo + rng.uniform(0, 1, (300, 3)) * (hi - lo)
+        pts = np.vstack([pts, [[(hi if c & b else lo)[a] for a, b in enumerate((1, 2, 4))]
+                               for c in range(8)]]) - eye
+        z = pts @ w
+        front = z > 1e-9
+        ix, iy = (pts @ p)[front] / z[front], (pts @ q)[front] / z[front]
+        assert len(ix) == 0 or ix.max() < box[0] or ix.min() > box[2] or iy.max() < box[1] \
+            or iy.min() > box[3]
+    assert beside >= 300
+
+
+def test_the_kernel_within_reach_gives_the_whole_kernels_verdicts(world):
+    """The expert's lattice asks about eyes within reach of the object only, with a kernel
+    that leaves out the faces no such eye looks at: from random eyes within reach its
+    verdicts are those of the whole kernel, with fewer faces."""
+    from fallgen.vision.sight import hidden_from, kernel_within
+
+    v = world.variant("kitchen_lshape-l1-m1")
+    cup = world.categories.instance("cup", "mug", "ceramic")
+    rng = np.random.default_rng(14)
+    spec = AgentSpec()
+    agree = hidden = 0
+    for zone in v.zones[::3]:
+        c = zone.volume.center
+        pos = (float(c[0]), float(c[1]), float(zone.volume.zmin) + 0.03)
+        scene = build_scene(v, world.materials, [PlacedObject("target", cup, pos, free=False)],
+                            settings=LOOK)
+        d = scene.data()
+        mujoco.mj_forward(scene.model, d)
+        others = SceneFaces(scene.model, d, [g for g in range(scene.model.ngeom)
+                                             if scene.geom_owner[g] != "obj:target"])
+        whole = Occluders([others], target_points(scene, d), near_distance(scene.model)).kernel
+        near = kernel_within(whole, pos[:2], 2.0, spec.camera_height_m)
+        assert len(near[0]) < len(whole[0])
+        for _ in range(60):
+            a, r = rng.uniform(0, 2 * np.pi), 2.0 * np.sqrt(rng.uniform())
+            x, y = pos[0] + r * np.cos(a), pos[1] + r * np.sin(a)
+            verdict = hidden_from(x, y, spec.camera_height_m, whole)
+            assert hidden_from(x, y, spec.camera_height_m, near) == verdict
+            agree += 1
+            hidden += verdict
+    assert agree >= 200 and 0 < hidden < agree, (agree, hidden)

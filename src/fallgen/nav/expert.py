@@ -41,6 +41,7 @@ from fallgen.nav.agent import (DOWN, FORWARD, FOUND, HEADING_VECTORS, LEFT, MAX_
 from fallgen.nav.hidden import hidden_everywhere
 from fallgen.nav.lattice import Lattice, LatticeFull, trace
 from fallgen.nav.occupancy import OccupancyGrid
+from fallgen.vision.sight import kernel_within
 
 FOV_DEG = 90.0
 #: ``may_see(pose, tilts)``: for each tilt (degrees) of the pose's position and heading,
@@ -148,7 +149,10 @@ def _search(start: Pose, grid: OccupancyGrid, target, corners: np.ndarray, spec:
                   half_fov_deg=FOV_DEG / 2, move_cost=move_cost, turn_cost=turn_cost,
                   tilt_cost=tilt_cost, tilt_deg=start.tilt_deg, tilt_min_deg=spec.tilt_min_deg,
                   tilt_max_deg=spec.tilt_max_deg, tilt_step_deg=spec.tilt_step_deg,
-                  actions=(FORWARD, LEFT, RIGHT), max_actions=MAX_ACTIONS, sight=sight)
+                  actions=(FORWARD, LEFT, RIGHT), max_actions=MAX_ACTIONS,
+                  # the lattice asks about eyes within reach only (the proofs take it whole)
+                  sight=None if sight is None else kernel_within(
+                      sight, target_xy, SUCCESS_DISTANCE_M + 1e-6, spec.camera_height_m))
     lat.start(start.x, start.y, start.heading)
     if known:
         lat.know_positions(*known)

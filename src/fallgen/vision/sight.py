@@ -71,6 +71,29 @@ SIDES = 16
 #: widens the piece.
 DEGENERATE_EDGE_PX = 1e-6
 @njit(cache=True)
+def _box_beside(lo, hi, eye, w, p, q, box):
+    """Whether every point of the box ``lo``..``hi`` in front of ``eye`` has its gnomonic
+    image (about ``w``, basis ``p``, ``q``) beyond one side of ``box`` (x0, y0, x1, y1), by
+    far more than rounding: x < x0 is (P - eye) . (p - x0 w) < 0 for a point P in front, a
+    linear function, largest at a corner."""
+    for side in range(4):
+        a = box[side]
+        sign = 1.0 if side < 2 else -1.0
+        nx = sign * ((p[0] if side % 2 == 0 else q[0]) - a * w[0])
+        ny = sign * ((p[1] if side % 2 == 0 else q[1]) - a * w[1])
+        nz = sign * ((p[2] if side % 2 == 0 else q[2]) - a * w[2])
+        top = -np.inf
+        for c in range(8):
+            x = (hi[0] if c & 1 else lo[0]) - eye[0]
+            y = (hi[1] if c & 2 else lo[1]) - eye[1]
+            z = (hi[2] if c & 4 else lo[2]) - eye[2]
+            top = max(top, x * nx + y * ny + z * nz)
+        if top < -1e-9:
+            return True
+    return False
+
+
+@njit(cache=True)
 def _project_solids(sverts, sstart, slo, shi, ssph, planes, nplanes, eye, w, p, q, box, near,
                     ox, oy, sizes, used):
     """The images of the convex solids that hide the object from ``eye`` (a separating plane
@@ -98,6 +121,8 @@ def _project_solids(sverts, sstart, slo, shi, ssph, planes, nplanes, eye, w, p, 
                 break
         if not ok:
             continue
+        if _box_beside(slo[s], shi[s], eye, w, p, q, box):
+            continue  # its image misses the object's: the test below would drop it too
         n = sstart[s + 1] - sstart[s]
         ix, iy = np.empty(n), np.empty(n)
         for j in range(n):
@@ -186,6 +211,27 @@ def _project_faces(tris, normals, lo, hi, solids, owner, behind, used, eye, corn
         sizes[k] = m
         k += 1
     return k
+
+
+def kernel_within(kernel: tuple, centre_xy, radius_m: float, eye_z: float) -> tuple:
+    """:attr:`Occluders.kernel` for eyes at height ``eye_z`` within ``radius_m`` (horizontally)
+    of ``centre_xy`` only, for :func:`hidden_from`: without the faces that lie outside the box
+    spanned by every such eye and the object's corners (the faces :func:`hidden_from` skips
+    from each of those eyes: its verdicts there are the same, a room's far faces not looked
+    at), and without the faces' coplanar pairs and the solids' face ranges (which only the
+    region proofs read: they take the whole kernel)."""
+    (tris, normals, lo, hi, spheres, owner, behind, *rest) = kernel
+    corners = kernel[14]
+    c = np.array([float(centre_xy[0]), float(centre_xy[1]), eye_z])
+    r = np.array([radius_m, radius_m, 0.0])
+    blo = np.minimum(c - r, corners.min(axis=0))
+    bhi = np.maximum(c + r, corners.max(axis=0))
+    keep = ~((lo > bhi).any(axis=1) | (hi < blo).any(axis=1))
+    faces = tuple(np.ascontiguousarray(a[keep]) for a in (tris, normals, lo, hi, spheres, owner,
+                                                          behind))
+    none = np.zeros(0, np.int64)
+    return (*faces, *rest[:10], none.astype(kernel[17].dtype), none.astype(kernel[18].dtype),
+            none.astype(kernel[19].dtype))
 
 
 class Occluders:
@@ -403,5 +449,5 @@ def _count_pixels(xs, ys, ns, w, p, q, yaw, tilt, size, scale, slack, enough):
     return total
 
 
-__all__ = ["DRAWN_GROUPS", "Occluders", "Sight", "BEHIND_M", "hidden_from", "near_distance",
-           "MARGIN", "SIDES", "SLACK_PX", "gnomonic_frame"]
+__all__ = ["DRAWN_GROUPS", "Occluders", "Sight", "BEHIND_M", "hidden_from", "kernel_within",
+           "near_distance", "MARGIN", "SIDES", "SLACK_PX", "gnomonic_frame"]
