@@ -31,3 +31,44 @@ def test_unique_rows_with_zeros_of_both_signs_or_nan_are_numpys():
     for a in (rows, rows[np.isfinite(rows).all(1)]):
         assert unique_rows(a).tobytes() == np.unique(a, axis=0).tobytes()
     assert unique_rows(np.zeros((0, 3))).shape == (0, 3)
+
+
+def test_each_solid_keeps_its_separating_planes_in_order_then_zeros(world):
+    """A room's faces against an object in it: each convex solid's planes are the directions
+    (of its 12) along which it lies wholly on the eye's side of the object, in their order,
+    with their support, then rows of zeros; its vertices, box and sphere are the part's."""
+    import mujoco
+
+    from fallgen.pipeline.settled import target_points
+    from fallgen.vision.faces import FaceSet, SceneFaces
+    from fallgen.world.scene import LOOK, PlacedObject, build_scene
+
+    v = world.variant("study_office-l1-m1")
+    cup = world.categories.instance("cup", "mug", "ceramic")
+    zone = v.zones[2]
+    pos = tuple(float(x) for x in zone.volume.center[:2]) + (float(zone.volume.zmin) + 0.03,)
+    scene = build_scene(v, world.materials, [PlacedObject("target", cup, pos, free=False)],
+                        settings=LOOK)
+    d = scene.data()
+    mujoco.mj_forward(scene.model, d)
+    room = SceneFaces(scene.model, d, [g for g in range(scene.model.ngeom)
+                                       if scene.geom_owner[g] != "obj:target"])
+    points = target_points(scene, d)
+    f = FaceSet([room], points, 0.002)
+    n = len(room.dirs)
+    assert n > 20 and f.planes.shape == (n, 12, 4) and len(f.nplanes) == n
+    with_planes = 0
+    for k in range(n):
+        ok = (points @ room.dirs[k].T).min(0) >= room.support[k] + 0.002
+        m = int(ok.sum())
+        assert f.nplanes[k] == m
+        np.testing.assert_array_equal(f.planes[k, :m, :3], room.dirs[k][ok])
+        np.testing.assert_array_equal(f.planes[k, :m, 3], room.support[k][ok])
+        assert not f.planes[k, m:].any()
+        a, b = room.solid_start[k], room.solid_start[k + 1]
+        np.testing.assert_array_equal(f.solid_verts[f.solid_start[k]:f.solid_start[k + 1]],
+                                      room.solid_verts[a:b])
+        with_planes += m > 0
+    np.testing.assert_array_equal(f.solid_lo, room.solid_lo)
+    np.testing.assert_array_equal(f.solid_spheres, room.solid_spheres)
+    assert 0 < with_planes < n

@@ -331,20 +331,26 @@ class FaceSet:
             reach = (points @ part.dirs.reshape(-1, 3).T).min(0).reshape(-1, 12) \
                 if len(part.dirs) else np.zeros((0, 12))
             ok = reach >= part.support + behind_m
-            number = np.full(len(ok), -1, np.int64)
-            for k in range(len(ok)):  # every convex solid, with or without planes
-                number[k] = n_solids
-                n_solids += 1
-                planes = np.zeros((12, 4))
-                planes[:ok[k].sum(), :3] = part.dirs[k][ok[k]]
-                planes[:ok[k].sum(), 3] = part.support[k][ok[k]]
-                solids["planes"].append((int(ok[k].sum()), planes))
-                v = part.solid_verts[part.solid_start[k]:part.solid_start[k + 1]]
-                solids["verts"].append(v)
-                starts.append(starts[-1] + len(v))
-                solids["lo"].append(part.solid_lo[k])
-                solids["hi"].append(part.solid_hi[k])
-                solids["sph"].append(part.solid_spheres[k])
+            # every convex solid, with or without planes: its separating directions first
+            # (in their order), then rows of zeros
+            nk = len(ok)
+            number = np.arange(n_solids, n_solids + nk, dtype=np.int64)
+            n_solids += nk
+            first = np.argsort(~ok, axis=1, kind="stable")
+            planes = np.zeros((nk, 12, 4))
+            planes[:, :, :3] = np.take_along_axis(part.dirs.reshape(nk, 12, 3),
+                                                  first[:, :, None], axis=1)
+            planes[:, :, 3] = np.take_along_axis(part.support.reshape(nk, 12), first, axis=1)
+            count = ok.sum(1)
+            planes[np.arange(12)[None, :] >= count[:, None]] = 0.0
+            solids["planes"].append((count, planes))
+            s0 = part.solid_start[0] if nk else 0
+            solids["verts"].append(part.solid_verts[s0:part.solid_start[nk]] if nk
+                                   else np.zeros((0, 3)))
+            starts.extend((starts[-1] + part.solid_start[1:nk + 1] - s0).tolist())
+            solids["lo"].append(part.solid_lo[:nk].reshape(-1, 3))
+            solids["hi"].append(part.solid_hi[:nk].reshape(-1, 3))
+            solids["sph"].append(part.solid_spheres[:nk].reshape(-1, 4))
             owner = np.where(part.owner >= 0, number[np.maximum(part.owner, 0)], -1) \
                 if len(number) else np.full(len(part.owner), -1, np.int64)
             use = behind | (owner >= 0)
@@ -378,11 +384,11 @@ class FaceSet:
                 raise AssertionError("a solid's faces are not consecutive")
         self.solid_verts = _cat(solids["verts"], (0, 3))
         self.solid_start = np.array(starts, np.int64)
-        self.solid_lo = np.array(solids["lo"], float).reshape(-1, 3)
-        self.solid_hi = np.array(solids["hi"], float).reshape(-1, 3)
-        self.solid_spheres = np.array(solids["sph"], float).reshape(-1, 4)
-        self.nplanes = np.array([n for n, _ in solids["planes"]], np.int64)
-        self.planes = np.array([p for _, p in solids["planes"]], float).reshape(-1, 12, 4)
+        self.solid_lo = _cat(solids["lo"], (0, 3))
+        self.solid_hi = _cat(solids["hi"], (0, 3))
+        self.solid_spheres = _cat(solids["sph"], (0, 4))
+        self.nplanes = _cat([n for n, _ in solids["planes"]], (0,), np.int64).astype(np.int64)
+        self.planes = _cat([p for _, p in solids["planes"]], (0, 12, 4))
 
 
 __all__ = ["DRAWN_GROUPS", "FaceSet", "SceneFaces", "behind_planes", "drawn_opaque",
