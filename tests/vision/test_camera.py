@@ -60,6 +60,29 @@ def test_turning_away_hides_the_object(cam_scene):
     assert cam.pixels_of(d, Pose(2.5, 1.8, 0, 0)) > 0
 
 
+def test_a_camera_makes_its_render_context_on_its_first_draw(world):
+    """Views that the bounds answer without drawing (the object behind the camera) make no
+    render context; the first draw makes it, and its pixels are those of a camera that drew
+    from the start."""
+    v = world.variant(VARIANT)
+    inst = world.categories.instance("cup", "mug", "ceramic")
+    scene = build_scene(v, world.materials, [PlacedObject("target", inst, (4.0, 1.8, 0.05))])
+    d = scene.data()
+    mujoco.mj_forward(scene.model, d)
+    lazy, eager = EgoCamera(scene, {"target": "cup"}), EgoCamera(scene, {"target": "cup"})
+    try:
+        away, toward = Pose(2.5, 1.8, 6, 0), Pose(2.5, 1.8, 0, -15)
+        assert eager.frames is not None
+        assert not lazy.shows(d, away, 4) and lazy.pixels_of(d, away) == 0
+        assert lazy._frames is None
+        assert lazy.shows(d, toward, 4) and lazy._frames is not None
+        a, b = lazy.render(d, toward), eager.render(d, toward)
+        assert np.array_equal(a.rgb, b.rgb) and np.array_equal(a.instance, b.instance)
+    finally:
+        lazy.close()
+        eager.close()
+
+
 def test_depth_is_metres_along_the_view_axis(cam_scene):
     """The centre pixel's depth equals the distance MuJoCo's ray cast finds straight ahead."""
     cam, d = cam_scene

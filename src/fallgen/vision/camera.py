@@ -121,7 +121,9 @@ class EgoCamera:
         m.vis.quality.shadowsize = SHADOW_MAP_PX if m.light_castshadow.any() else 0
         # room for every geom and site the default options draw, twice over (a scene's
         # arrays cost ~2 us a slot to make; SceneFrames refuses a full scene)
-        self.frames = SceneFrames(m, context, max_geom=2 * (m.ngeom + m.nsite) + 64)
+        self._max_geom = 2 * (m.ngeom + m.nsite) + 64
+        self._context, self.size = context, size
+        self._frames: SceneFrames | None = None  # made on the first draw (see frames)
         self.instances = tuple(sorted(set(scene.geom_owner)))
         inst_of_geom = np.array([self.instances.index(o) for o in scene.geom_owner], np.int16)
         cats = object_categories or {}
@@ -139,10 +141,21 @@ class EgoCamera:
                 self._drawn_geoms_of.setdefault(o, []).append(g)
         self._cat = np.append(cat_of_geom, np.int16(-1))
 
+    @property
+    def frames(self) -> SceneFrames:
+        """The scene's render context, made on first use: a camera asked only what its
+        bounds answer without drawing (:meth:`shows` of a view that cannot show enough)
+        uploads no meshes and textures (~6 ms a scene on a CPU renderer)."""
+        if self._frames is None:
+            self._frames = SceneFrames(self.scene.model, self._context, self._max_geom)
+        return self._frames
+
     def close(self) -> None:
-        self.frames.close()
+        if self._frames is not None:
+            self._frames.close()
+            self._frames = None
         if self._own_context:
-            self.frames.context.close()
+            self._context.close()
 
     def _eye_and_forward(self, pose: Pose) -> tuple[np.ndarray, np.ndarray]:
         """The camera's position and unit view direction (room frame) at ``pose``."""
@@ -242,7 +255,7 @@ class EgoCamera:
             return 0, None
         geoms = self._drawn_geoms_of.get(owner, [])
         m = self.scene.model
-        size = self.frames.size
+        size = self.size
         half = size / 2
         scale = half / math.tan(math.radians(FOV_DEG / 2))
         hulls = []
