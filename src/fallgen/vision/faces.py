@@ -344,13 +344,12 @@ class FaceSet:
             count = ok.sum(1)
             planes[np.arange(12)[None, :] >= count[:, None]] = 0.0
             solids["planes"].append((count, planes))
-            s0 = part.solid_start[0] if nk else 0
-            solids["verts"].append(part.solid_verts[s0:part.solid_start[nk]] if nk
-                                   else np.zeros((0, 3)))
-            starts.extend((starts[-1] + part.solid_start[1:nk + 1] - s0).tolist())
-            solids["lo"].append(part.solid_lo[:nk].reshape(-1, 3))
-            solids["hi"].append(part.solid_hi[:nk].reshape(-1, 3))
-            solids["sph"].append(part.solid_spheres[:nk].reshape(-1, 4))
+            # the part's solids' vertices are its solid_verts, solid by solid from 0
+            solids["verts"].append(part.solid_verts)
+            starts.extend((starts[-1] + part.solid_start[1:]).tolist())
+            solids["lo"].append(part.solid_lo)
+            solids["hi"].append(part.solid_hi)
+            solids["sph"].append(part.solid_spheres)
             owner = np.where(part.owner >= 0, number[np.maximum(part.owner, 0)], -1) \
                 if len(number) else np.full(len(part.owner), -1, np.int64)
             use = behind | (owner >= 0)
@@ -387,7 +386,7 @@ class FaceSet:
         self.solid_lo = _cat(solids["lo"], (0, 3))
         self.solid_hi = _cat(solids["hi"], (0, 3))
         self.solid_spheres = _cat(solids["sph"], (0, 4))
-        self.nplanes = _cat([n for n, _ in solids["planes"]], (0,), np.int64).astype(np.int64)
+        self.nplanes = _cat([n for n, _ in solids["planes"]], (0,), np.int64)
         self.planes = _cat([p for _, p in solids["planes"]], (0, 12, 4))
 
 

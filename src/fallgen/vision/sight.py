@@ -70,6 +70,8 @@ SIDES = 16
 #: points points anywhere (it would cut away half of the piece). Leaving a side out only
 #: widens the piece.
 DEGENERATE_EDGE_PX = 1e-6
+
+
 @njit(cache=True)
 def _box_beside(lo, hi, eye, w, p, q, box):
     """Whether every point of the box ``lo``..``hi`` in front of ``eye`` has its gnomonic
@@ -229,9 +231,7 @@ def kernel_within(kernel: tuple, centre_xy, radius_m: float, eye_z: float) -> tu
     keep = ~((lo > bhi).any(axis=1) | (hi < blo).any(axis=1))
     faces = tuple(np.ascontiguousarray(a[keep]) for a in (tris, normals, lo, hi, spheres, owner,
                                                           behind))
-    none = np.zeros(0, np.int64)
-    return (*faces, *rest[:10], none.astype(kernel[17].dtype), none.astype(kernel[18].dtype),
-            none.astype(kernel[19].dtype))
+    return (*faces, *rest[:10], *(np.zeros(0, a.dtype) for a in rest[10:]))
 
 
 class Occluders:
