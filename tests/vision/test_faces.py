@@ -33,27 +33,15 @@ def test_unique_rows_with_zeros_of_both_signs_or_nan_are_numpys():
     assert unique_rows(np.zeros((0, 3))).shape == (0, 3)
 
 
-def test_each_solid_keeps_its_separating_planes_in_order_then_zeros(world):
+def test_each_solid_keeps_its_separating_planes_in_order_then_zeros(world, zone_scene):
     """A room's faces against an object in it: each convex solid's planes are the directions
     (of its 12) along which it lies wholly on the eye's side of the object, in their order,
     with their support, then rows of zeros; its vertices, box and sphere are the part's."""
-    import mujoco
-
-    from fallgen.pipeline.settled import target_points
-    from fallgen.vision.faces import FaceSet, SceneFaces
-    from fallgen.world.scene import LOOK, PlacedObject, build_scene
+    from fallgen.vision.faces import FaceSet
 
     v = world.variant("study_office-l1-m1")
-    cup = world.categories.instance("cup", "mug", "ceramic")
-    zone = v.zones[2]
-    pos = tuple(float(x) for x in zone.volume.center[:2]) + (float(zone.volume.zmin) + 0.03,)
-    scene = build_scene(v, world.materials, [PlacedObject("target", cup, pos, free=False)],
-                        settings=LOOK)
-    d = scene.data()
-    mujoco.mj_forward(scene.model, d)
-    room = SceneFaces(scene.model, d, [g for g in range(scene.model.ngeom)
-                                       if scene.geom_owner[g] != "obj:target"])
-    points = target_points(scene, d)
+    z = zone_scene(v, v.zones[2], world.categories.instance("cup", "mug", "ceramic"))
+    room, points = z.faces, z.points
     f = FaceSet([room], points, 0.002)
     n = len(room.dirs)
     assert n > 20 and f.planes.shape == (n, 12, 4) and len(f.nplanes) == n

@@ -11,11 +11,9 @@ import numpy as np
 import pytest
 
 from fallgen.nav.agent import AgentSpec
-from fallgen.pipeline.settled import target_points
 from fallgen.vision.faces import SceneFaces, coplanar_pairs, geom_triangles
 from fallgen.vision.region import hidden_from_cell
 from fallgen.vision.sight import Occluders, hidden_from, near_distance
-from fallgen.world.scene import LOOK, PlacedObject, build_scene
 
 H = AgentSpec().camera_height_m
 #: the object: a ball of radius 4 cm, 2 m ahead of the square's centre (the origin)
@@ -130,7 +128,7 @@ def _views(camera, x, y):
 
 
 @pytest.mark.parametrize("variant_id", ["kitchen_galley-l1-m1", "study_office-l1-m1"])
-def test_no_view_from_a_square_proven_hidden_shows_the_object(world, variant_id):
+def test_no_view_from_a_square_proven_hidden_shows_the_object(world, zone_scene, variant_id):
     """With a cup in a fall zone, over the 10 cm cells around it: wherever the region proof
     says hidden, every view (12 headings, 7 tilts) from eyes in the cell (a corner and two
     random points) rendered in full shows no pixel of the cup; and the proof holds for most of
@@ -143,15 +141,9 @@ def test_no_view_from_a_square_proven_hidden_shows_the_object(world, variant_id)
     spec = AgentSpec()
     proven = point_hidden = rendered = 0
     for zone in v.zones[::3]:
-        c = zone.volume.center
-        pos = (float(c[0]), float(c[1]), float(zone.volume.zmin) + 0.03)
-        scene = build_scene(v, world.materials, [PlacedObject("target", cup, pos, free=False)],
-                            settings=LOOK)
-        d = scene.data()
-        mujoco.mj_forward(scene.model, d)
-        others = SceneFaces(scene.model, d, [g for g in range(scene.model.ngeom)
-                                             if scene.geom_owner[g] != "obj:target"])
-        k = Occluders([others], target_points(scene, d), near_distance(scene.model)).kernel
+        z = zone_scene(v, zone, cup)
+        scene, d, pos = z.scene, z.data, z.pos
+        k = Occluders([z.faces], z.points, near_distance(scene.model)).kernel
         camera = EgoCamera(scene, {"target": "cup"}, spec)
         try:
             for _ in range(10):

@@ -13,12 +13,9 @@ import pytest
 import shapely
 
 from fallgen.nav.agent import AgentSpec, Pose
-from fallgen.pipeline.settled import target_points
 from fallgen.vision.camera import EgoCamera
 from fallgen.vision.cover import MAX_VERTICES, convex_hull, covered, extents_polygon
-from fallgen.vision.faces import SceneFaces
 from fallgen.vision.sight import Occluders, Sight, gnomonic_frame, near_distance
-from fallgen.world.scene import LOOK, PlacedObject, build_scene
 
 
 def _cover(g: np.ndarray, polys: list[np.ndarray]) -> bool:
@@ -147,7 +144,7 @@ def _views(camera, data, x, y):
 
 
 @pytest.mark.parametrize("variant_id", ["kitchen_galley-l1-m1", "study_office-l1-m1"])
-def test_no_view_from_a_hidden_eye_shows_the_object(world, variant_id):
+def test_no_view_from_a_hidden_eye_shows_the_object(world, zone_scene, variant_id):
     """With the object in each fall zone (a book beside it), from random eyes at the camera's
     height: wherever the proof says hidden, every view (12 headings, 7 tilts) rendered in full
     shows no pixel of the object; and it says so for a good share of the eyes that see
@@ -163,18 +160,10 @@ def test_no_view_from_a_hidden_eye_shows_the_object(world, variant_id):
     spec = AgentSpec()
     hidden = blind = refuted = 0
     for zone in v.zones[::2]:
-        c = zone.volume.center
-        pos = (float(c[0]), float(c[1]), float(zone.volume.zmin) + 0.03)
-        objs = [PlacedObject("target", cup, pos, free=False),
-                PlacedObject("d0", book, (pos[0] + 0.15, pos[1], pos[2] + 0.05), free=False)]
-        scene = build_scene(v, world.materials, objs, settings=LOOK)
-        d = scene.data()
-        mujoco.mj_forward(scene.model, d)
-        points = target_points(scene, d)
-        others = SceneFaces(scene.model, d, [g for g in range(scene.model.ngeom)
-                                             if scene.geom_owner[g] != "obj:target"])
-        occ = Occluders([others], points, near_distance(scene.model))
-        wrong = Occluders([others], points, near_distance(scene.model), behind_m=-10.0)
+        z = zone_scene(v, zone, cup, beside=[("d0", book, (0.15, 0.0, 0.05))])
+        scene, d, pos = z.scene, z.data, z.pos
+        occ = Occluders([z.faces], z.points, near_distance(scene.model))
+        wrong = Occluders([z.faces], z.points, near_distance(scene.model), behind_m=-10.0)
         camera = EgoCamera(scene, {"target": "cup", "d0": "book"}, spec)
         try:
             for _ in range(12):
@@ -198,30 +187,22 @@ def test_no_view_from_a_hidden_eye_shows_the_object(world, variant_id):
     assert refuted >= 1
 
 
-def test_no_view_shows_more_pixels_than_the_bound(world):
+def test_no_view_shows_more_pixels_than_the_bound(world, zone_scene):
     """From random eyes near the object in each fall zone, the views towards it (two
     headings, five tilts) rendered in full: none shows more of the object than
     :meth:`Sight.max_pixels` allows (the bound the expert skips renders by, counted without
     a cap), many show some of it, and a wrong proof's bound falls short somewhere."""
-    world_ = world
     rng = np.random.default_rng(11)
-    v = world_.variant("kitchen_lshape-l1-m1")
+    v = world.variant("kitchen_lshape-l1-m1")
     lx, ly, _ = v.size_m
-    jug = world_.categories.instance("jug", "glass", "glass")
+    jug = world.categories.instance("jug", "glass", "glass")
     spec = AgentSpec()
     views = shown = short = 0
     for zone in v.zones[1::2]:
-        c = zone.volume.center
-        pos = (float(c[0]), float(c[1]), float(zone.volume.zmin) + 0.08)
-        scene = build_scene(v, world_.materials, [PlacedObject("target", jug, pos, free=False)],
-                            settings=LOOK)
-        d = scene.data()
-        mujoco.mj_forward(scene.model, d)
-        points = target_points(scene, d)
-        others = SceneFaces(scene.model, d, [g for g in range(scene.model.ngeom)
-                                             if scene.geom_owner[g] != "obj:target"])
-        occ = Occluders([others], points, near_distance(scene.model))
-        wrong = Occluders([others], points, near_distance(scene.model), behind_m=-10.0)
+        z = zone_scene(v, zone, jug, lift=0.08)
+        scene, d, pos = z.scene, z.data, z.pos
+        occ = Occluders([z.faces], z.points, near_distance(scene.model))
+        wrong = Occluders([z.faces], z.points, near_distance(scene.model), behind_m=-10.0)
         camera = EgoCamera(scene, {"target": "jug"}, spec)
         try:
             for _ in range(10):
@@ -276,7 +257,7 @@ def test_a_box_called_beside_the_image_box_projects_wholly_beyond_it():
     assert beside >= 300
 
 
-def test_the_kernel_within_reach_gives_the_whole_kernels_verdicts(world):
+def test_the_kernel_within_reach_gives_the_whole_kernels_verdicts(world, zone_scene):
     """The expert's lattice asks about eyes within reach of the object only, with a kernel
     that leaves out the faces no such eye looks at: from random eyes within reach its
     verdicts are those of the whole kernel, with fewer faces."""
@@ -288,15 +269,9 @@ def test_the_kernel_within_reach_gives_the_whole_kernels_verdicts(world):
     spec = AgentSpec()
     agree = hidden = 0
     for zone in v.zones[::3]:
-        c = zone.volume.center
-        pos = (float(c[0]), float(c[1]), float(zone.volume.zmin) + 0.03)
-        scene = build_scene(v, world.materials, [PlacedObject("target", cup, pos, free=False)],
-                            settings=LOOK)
-        d = scene.data()
-        mujoco.mj_forward(scene.model, d)
-        others = SceneFaces(scene.model, d, [g for g in range(scene.model.ngeom)
-                                             if scene.geom_owner[g] != "obj:target"])
-        whole = Occluders([others], target_points(scene, d), near_distance(scene.model)).kernel
+        z = zone_scene(v, zone, cup)
+        pos = z.pos
+        whole = Occluders([z.faces], z.points, near_distance(z.scene.model)).kernel
         near = kernel_within(whole, pos[:2], 2.0, spec.camera_height_m)
         assert len(near[0]) < len(whole[0])
         for _ in range(60):
