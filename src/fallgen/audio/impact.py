@@ -17,6 +17,11 @@ area at the surface nodes):
 - large source: every surface element radiates with efficiency 1,
   p = rho0 c w sqrt(sum(|a| (n . phi)^2) / (4 pi)) / r.
 
+What a mode radiates also damps it: its loss factor is the material's plus its radiation's
+(:meth:`SoundingBody.loss_factors`; a ceramic jug's 10 kHz mode radiates at 1.4 times the
+rate its material damps it, and without this it would have radiated 1.4 times the energy it
+held).
+
 No normalisation anywhere: a faster or heavier impact is louder in absolute terms.
 """
 
@@ -71,6 +76,17 @@ class SoundingBody:
         """R_i: pressure (Pa) at 1 m per metre of modal displacement, per mode (computed once
         per body)."""
         return self._radiation
+
+    def loss_factors(self) -> np.ndarray:
+        """Each mode's loss factor: the material's plus what its sound carries away,
+        eta_rad = 4 pi r^2 R_i^2 / (rho0 c w_i^3) (a mass-normalised mode holding energy
+        w^2 q^2 / 2 radiates 4 pi r^2 R^2 q^2 / (2 rho0 c) at r = 1 m), so that a mode radiates
+        the share eta_rad / (eta + eta_rad) of what it is given, never more."""
+        w = self.modes.omega
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rad = np.where(w > 0, 4 * math.pi * REFERENCE_DISTANCE_M ** 2 * self.radiation() ** 2
+                           / (RHO_AIR * C_AIR * np.maximum(w, 1e-30) ** 3), 0.0)
+        return self.loss_factor + rad
 
 
 #: The dipole strength of a compact body over the first moment of its volume displacement:
@@ -459,8 +475,9 @@ def render(body: SoundingBody, hits: list[ModalHit], length_s: float,
     if not keep.any() or not hits:
         return out
     w = m.omega[keep]
-    d = body.loss_factor * w / 2
-    wd = w * np.sqrt(np.maximum(1 - (body.loss_factor / 2) ** 2, 1e-6))
+    eta = body.loss_factors()[keep]
+    d = eta * w / 2
+    wd = w * np.sqrt(np.maximum(1 - (eta / 2) ** 2, 1e-6))
     R = body.radiation()[keep]
     # modal impulses per hit (sparse: a hit is one sample per mode)
     live = [h for h in hits if h.impulse_ns > 0 and int(round(h.time_s * sample_rate)) < n_out]
