@@ -77,16 +77,20 @@ class SoundingBody:
         per body)."""
         return self._radiation
 
-    def loss_factors(self) -> np.ndarray:
-        """Each mode's loss factor: the material's plus what its sound carries away,
-        eta_rad = 4 pi r^2 R_i^2 / (rho0 c w_i^3) (a mass-normalised mode holding energy
-        w^2 q^2 / 2 radiates 4 pi r^2 R^2 q^2 / (2 rho0 c) at r = 1 m), so that a mode radiates
-        the share eta_rad / (eta + eta_rad) of what it is given, never more."""
+    @cached_property
+    def _loss_factors(self) -> np.ndarray:
         w = self.modes.omega
         with np.errstate(divide="ignore", invalid="ignore"):
             rad = np.where(w > 0, 4 * math.pi * REFERENCE_DISTANCE_M ** 2 * self.radiation() ** 2
                            / (RHO_AIR * C_AIR * np.maximum(w, 1e-30) ** 3), 0.0)
         return self.loss_factor + rad
+
+    def loss_factors(self) -> np.ndarray:
+        """Each mode's loss factor: the material's plus what its sound carries away,
+        eta_rad = 4 pi r^2 R_i^2 / (rho0 c w_i^3) (a mass-normalised mode holding energy
+        w^2 q^2 / 2 radiates 4 pi r^2 R^2 q^2 / (2 rho0 c) at r = 1 m), so that a mode radiates
+        the share eta_rad / (eta + eta_rad) of what it is given, never more."""
+        return self._loss_factors
 
 
 #: The dipole strength of a compact body over the first moment of its volume displacement:
