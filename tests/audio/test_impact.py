@@ -67,20 +67,27 @@ def _pulse_spectrum(w, duration_s):
     return np.where(np.abs(x - 1) < 1e-9, math.pi / 4, s)
 
 
-def _mode_amplitudes(body, hit, fs=FS):
-    """Each rendered mode's pressure amplitude at 1 m for one hit, written out from the modal
-    model (mass-normalised shapes: an impulse J gives a mode the velocity (phi . n) J) and the
-    pulse's spectrum: (A_i, d_i) with p(t) = sum A_i e^(-d_i t) sin(w_d,i t)."""
+def _mode_velocities(body, hit, fs=FS):
+    """(v_i, kept): the velocity one hit gives each mode, written out from the modal model
+    (mass-normalised shapes: an impulse J gives a mode the velocity (phi . n) J) and the
+    pulse's spectrum, and which modes the renderer keeps (20 Hz to 0.45 fs)."""
     m = body.modes
     w = m.omega
     keep = (w > 2 * math.pi * 20) & (w < 0.45 * fs * 2 * math.pi)
-    eta = body.loss_factors()
-    d, wd = eta * w / 2, w * np.sqrt(1 - (eta / 2) ** 2)
     node = int(np.argmin(np.linalg.norm(m.points - np.asarray(hit.point), axis=1)))
     normal = m.area[node] / np.linalg.norm(m.area[node])
     phi = m.shapes[node].astype(float) * m.shape_factor
-    a = (normal @ phi) * hit.impulse_ns * _pulse_spectrum(w, hit.duration_s) \
-        * body.radiation() / wd
+    return (normal @ phi) * hit.impulse_ns * _pulse_spectrum(w, hit.duration_s), keep
+
+
+def _mode_amplitudes(body, hit, fs=FS):
+    """Each rendered mode's pressure amplitude at 1 m for one hit:
+    (A_i, d_i) with p(t) = sum A_i e^(-d_i t) sin(w_d,i t)."""
+    w = body.modes.omega
+    eta = body.loss_factors()
+    d, wd = eta * w / 2, w * np.sqrt(1 - (eta / 2) ** 2)
+    v, keep = _mode_velocities(body, hit, fs)
+    a = v * body.radiation() / wd
     return a[keep], d[keep]
 
 
@@ -135,11 +142,8 @@ def test_a_mode_radiates_its_radiation_loss_share_of_what_it_is_given(bar_ref):
     b.__dict__["_radiation"] = loud  # the cached radiation factors, replaced
     assert b.loss_factors() == pytest.approx(4 * b.loss_factor, rel=1e-12)
     hit = _hit(b, 1.0)
-    node = int(np.argmin(np.linalg.norm(b.modes.points - np.asarray(hit.point), axis=1)))
-    normal = b.modes.area[node] / np.linalg.norm(b.modes.area[node])
-    gain = (normal @ b.modes.phi(node)) * hit.impulse_ns * _pulse_spectrum(w, hit.duration_s)
-    keep = (w > 2 * math.pi * 20) & (w < 0.45 * FS * 2 * math.pi)
-    given = float(np.sum(gain[keep] ** 2) / 2)
+    v, keep = _mode_velocities(b, hit)
+    given = float(np.sum(v[keep] ** 2) / 2)
     radiated = radiated_energy_j(render(b, [hit], 4.0, FS), FS)
 
     def check(r):
