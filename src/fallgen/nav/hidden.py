@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
-from fallgen.vision.region import hidden_from_cell
+from fallgen.vision.region import extreme_corners, hidden_from_cell
 from fallgen.vision.sight import hidden_from
 
 #: How many times a cell not proven hidden as a whole is split into quarters (down to 2.5 cm).
@@ -70,34 +70,36 @@ def hidden_everywhere(ok: np.ndarray, resolution: float, start_xy, target_xy, re
     d2 = dx * dx + dy * dy
     near = np.flatnonzero(d2 <= (reach_m + 1e-6) ** 2)
     z = float(camera_height_m)
+    extreme = extreme_corners(sight) if len(near) else None  # made once for every square
     blocks: dict[tuple[int, int], list[int]] = {}  # nearest cell first, in each and in all
     for k in near[np.argsort(d2[near], kind="stable")].tolist():
         blocks.setdefault((int(cells[k, 0]) // BLOCK, int(cells[k, 1]) // BLOCK), []).append(k)
     for (bi, bj), ks in blocks.items():
         if len(ks) > 1:
             bx, by = (bi * BLOCK - 1) * r, (bj * BLOCK - 1) * r  # index i: x from (i - 1) r
-            if hidden_from_cell(bx, by, bx + BLOCK * r, by + BLOCK * r, z, sight):
+            if hidden_from_cell(bx, by, bx + BLOCK * r, by + BLOCK * r, z, sight, extreme):
                 continue
         for k in ks:
-            if not square_hidden(float(x0[k]), float(y0[k]), r, z, sight):
+            if not square_hidden(float(x0[k]), float(y0[k]), r, z, sight, extreme=extreme):
                 return None
     return len(near)
 
 
 def square_hidden(x0: float, y0: float, size: float, z: float, sight: tuple,
-                  depth: int = SPLITS) -> bool:
+                  depth: int = SPLITS, extreme: tuple | None = None) -> bool:
     """Whether the object is proven hidden from every eye of the square [x0, x0 + size]^2 at
     height z: by the region proof on the whole square, or on each of its quarters (``depth``
     times over). Occluders that overlap (a basket's two walls meeting at a corner) hide
     together what neither hides alone; the region proof takes them one by one, and the seam
     between their images moves with the eye by less in a smaller square. A square whose
-    centre sees the object is not split: no part of it can be proven hidden."""
-    if hidden_from_cell(x0, y0, x0 + size, y0 + size, z, sight):
+    centre sees the object is not split: no part of it can be proven hidden. ``extreme``:
+    :func:`fallgen.vision.region.extreme_corners` of ``sight``, made once for many squares."""
+    if hidden_from_cell(x0, y0, x0 + size, y0 + size, z, sight, extreme):
         return True
     if depth <= 0 or not hidden_from(x0 + size / 2, y0 + size / 2, z, sight):
         return False
     h = size / 2
-    return all(square_hidden(x, y, h, z, sight, depth - 1)
+    return all(square_hidden(x, y, h, z, sight, depth - 1, extreme)
                for x, y in ((x0, y0), (x0 + h, y0), (x0, y0 + h), (x0 + h, y0 + h)))
 
 
