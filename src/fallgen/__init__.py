@@ -26,3 +26,8 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 # the two cost the same (two shards side by side, and a full build: 8.5 min, the same files, as
 # with one thread). Read when the first GL context is made.
 _os.environ.setdefault("LP_NUM_THREADS", "0")
+# Compiled functions are cached per version of the package's sources (fallgen.jitcache): Numba's
+# own cache would keep serving a function compiled against an older version of a module it calls.
+from fallgen import jitcache as _jitcache  # noqa: E402
+
+_jitcache.configure()
