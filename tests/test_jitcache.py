@@ -9,6 +9,7 @@ import os
 import subprocess
 import sys
 import textwrap
+import time
 from pathlib import Path
 
 import fallgen
@@ -87,3 +88,32 @@ def test_fallgen_points_numba_at_its_sources_directory():
     import numba
 
     assert numba.core.config.CACHE_DIR == str(here)
+
+
+def test_a_cache_that_cannot_be_written_is_left_to_numba(tmp_path, monkeypatch):
+    """$FALLGEN_CACHE under a file (no directory can be made there, whoever runs): the
+    environment is left as it was and configure says so."""
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    monkeypatch.setenv("FALLGEN_CACHE", str(blocker / "cache"))
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    assert jitcache.configure(_package(tmp_path, 1e-3)) is None
+    assert "NUMBA_CACHE_DIR" not in os.environ
+
+
+def test_a_new_version_removes_directories_unused_for_a_week(tmp_path, monkeypatch):
+    """A first run of new sources removes the other versions' directories untouched for
+    KEEP_S, and keeps the recent ones."""
+    import numba
+
+    monkeypatch.setenv("FALLGEN_CACHE", str(tmp_path / "cache"))
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    monkeypatch.setattr(numba.core.config, "CACHE_DIR", numba.core.config.CACHE_DIR)
+    old, recent = tmp_path / "cache" / "numba" / "old", tmp_path / "cache" / "numba" / "recent"
+    for d in (old, recent):
+        d.mkdir(parents=True)
+    week_ago = time.time() - jitcache.KEEP_S - 60
+    os.utime(old, (week_ago, week_ago))
+    here = jitcache.configure(_package(tmp_path, 1e-3))
+    assert here is not None and here.is_dir() and os.environ["NUMBA_CACHE_DIR"] == str(here)
+    assert not old.exists() and recent.exists()

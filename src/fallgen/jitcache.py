@@ -49,13 +49,22 @@ def cache_dir(package_dir: Path, root: Path) -> Path:
 
 def configure(package_dir: Path | None = None) -> Path | None:
     """Point Numba's cache at :func:`cache_dir` of fallgen's sources (of ``package_dir``);
-    returns it, or None when the user set ``NUMBA_CACHE_DIR``."""
+    returns it, or None when the user set ``NUMBA_CACHE_DIR`` or it cannot be written (a
+    read-only home: Numba then keeps its own cache, which would fail the import there)."""
     if os.environ.get("NUMBA_CACHE_DIR"):
         return None
     from fallgen.cache import cache_root
 
     here = cache_dir(package_dir or Path(__file__).resolve().parent, cache_root())
-    if not here.exists():
+    new = not here.exists()
+    try:
+        here.mkdir(parents=True, exist_ok=True)
+        probe = here / f".probe-{os.getpid()}"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError:
+        return None
+    if new:
         _prune(here.parent, keep=here.name)
     os.environ["NUMBA_CACHE_DIR"] = str(here)
     numba = sys.modules.get("numba")
