@@ -294,12 +294,14 @@ def hidden_from_cell(x0, y0, x1, y1, z, kernel, extreme=None):
     # the object grown by a ball subtending MARGIN radians from every eye (a cube holds it)
     r = dmax * math.sin(MARGIN) * 1.01
     n0 = points.shape[0]
-    index, corner = _every_corner(n0)
     # only the corners that can be extreme, where none can reach behind an eye (each is in
     # front by 0.01 - r sqrt 3 at least: the object's box is 0.01 beyond every eye)
-    if extreme is not None:
-        if r * math.sqrt(3.0) < 0.01 - 1e-5:
-            index, corner = extreme[0], extreme[1]
+    if extreme is None:
+        index, corner = _every_corner(n0)
+    elif r * math.sqrt(3.0) < 0.01 - 1e-5:
+        index, corner = extreme[0], extreme[1]
+    else:
+        index, corner = _every_corner(n0)
     grown = np.empty((len(index), 3))
     for m in range(len(index)):
         j, s = index[m], corner[m]
