@@ -117,3 +117,15 @@ def test_a_new_version_removes_directories_unused_for_a_week(tmp_path, monkeypat
     here = jitcache.configure(_package(tmp_path, 1e-3))
     assert here is not None and here.is_dir() and os.environ["NUMBA_CACHE_DIR"] == str(here)
     assert not old.exists() and recent.exists()
+
+
+def test_the_mark_of_compiled_code_is_named_by_the_sources(tmp_path, monkeypatch):
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    pkg = tmp_path / "pkg"
+    pkg.mkdir()
+    (pkg / "a.py").write_text("X = 1\n")
+    first = jitcache.done_marker("compiled", pkg)
+    (pkg / "a.py").write_text("X = 2\n")
+    assert first.parent == tmp_path and jitcache.done_marker("compiled", pkg) != first
+    monkeypatch.delenv("NUMBA_CACHE_DIR")
+    assert jitcache.done_marker("compiled", pkg) is None

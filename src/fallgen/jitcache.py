@@ -73,6 +73,17 @@ def configure(package_dir: Path | None = None) -> Path | None:
     return here
 
 
+def done_marker(name: str, package_dir: Path | None = None) -> Path | None:
+    """A file in Numba's cache directory whose presence records that ``name`` was done for
+    these sources (a build compiling its functions ahead of its workers, say): named by the
+    sources' digest too, so that it also holds in a directory the user set. None where Numba
+    has no cache directory set (it cannot keep what would be done)."""
+    d = os.environ.get("NUMBA_CACHE_DIR")
+    if not d:
+        return None
+    return Path(d) / f".{name}-{source_digest(package_dir or Path(__file__).resolve().parent)}"
+
+
 def _prune(parent: Path, keep: str) -> None:
     """Remove the other sources' directories under ``parent`` not changed for KEEP_S."""
     if not parent.is_dir():
@@ -86,4 +97,4 @@ def _prune(parent: Path, keep: str) -> None:
             pass
 
 
-__all__ = ["KEEP_S", "cache_dir", "configure", "source_digest"]
+__all__ = ["KEEP_S", "cache_dir", "configure", "done_marker", "source_digest"]

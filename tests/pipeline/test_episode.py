@@ -284,3 +284,57 @@ def test_an_event_proven_hidden_is_not_searched_again_from_the_same_cells(world,
     with pytest.raises(Skip):
         maker.make(0, events[1], 11)
     assert asked[-1] == events[1].event_id and len(asked) == 3
+
+
+#: run in a fresh process: compile ahead on the first event, then make the others' episodes
+#: (each search trying the proof that no reachable pose sees the object at once, as the long
+#: searches of a build do) and print the compiled functions that gained a specialisation
+AHEAD = """
+import json, pickle, sys
+from numba.core.dispatcher import Dispatcher
+from fallgen.audio.hrtf import spherical_head
+from fallgen.audio.mix import Binaural
+from fallgen.audio.room import RirSettings
+from fallgen.nav import expert
+from fallgen.pipeline.episode import EpisodeMaker, Skip
+from fallgen.world.library import load_world
+
+def compiled():
+    return {(m.__name__, n, tuple(map(str, d.signatures)))
+            for m in list(sys.modules.values()) if getattr(m, "__name__", "").startswith("fallgen")
+            for n, d in vars(m).items() if isinstance(d, Dispatcher)}
+
+events = pickle.loads(open(sys.argv[1], "rb").read())
+maker = EpisodeMaker(load_world(), Binaural(spherical_head()), rir=RirSettings(length_s=2.0))
+maker.compile_ahead(events[0], 11)
+before = compiled()
+expert.PROOF_AFTER_STATES = expert.PROOF_AFTER_VERDICTS = 0
+made = 0
+for i, e in enumerate(events[1:]):
+    try:
+        maker.make(i, e, 11)
+        made += 1
+    except Skip:
+        pass
+print(json.dumps({"made": made, "ahead": sum(bool(s) for _, _, s in before),
+                  "new": sorted(f"{m}.{n}" for m, n, _ in compiled() - before)}))
+"""
+
+
+def test_compiling_ahead_leaves_the_episodes_nothing_to_compile(events, maker, tmp_path):
+    """After :meth:`EpisodeMaker.compile_ahead` on one event, the episodes of the others, with
+    their searches' proofs and the falls' replays, specialise no compiled function further: a
+    build's workers, started after a process that compiled ahead, only load compiled code
+    (compiling it themselves cost each ~250 MB more)."""
+    import json
+    import pickle
+    import subprocess
+    import sys
+
+    (tmp_path / "events.pkl").write_bytes(pickle.dumps(events))
+    out = subprocess.run([sys.executable, "-c", AHEAD, str(tmp_path / "events.pkl")],
+                         capture_output=True, text=True, check=True)
+    got = json.loads(out.stdout.strip().splitlines()[-1])
+    assert got["made"] >= 2, got
+    assert got["new"] == [], got
+    assert got["ahead"] >= 20, got  # the search, the occlusion bounds, the proof, the replay

@@ -106,6 +106,26 @@ def test_a_shard_loads_only_the_events_it_can_use(tiny_build):
     assert load_events(cfg, out, set()) == []
 
 
+def test_a_pool_build_compiles_ahead_once_per_version_of_the_sources(tiny_build, world,
+                                                                    monkeypatch, tmp_path):
+    """Before its workers start, a build compiles its functions in a process of its own and
+    marks them compiled for these sources; with the mark there it does not again."""
+    from fallgen import jitcache
+    from fallgen.config import load_config
+    from fallgen.pipeline.generate import build_plan, compile_ahead
+
+    base, cfg_file = tiny_build
+    cfg, out = load_config(cfg_file), base / "one"
+    marks = []
+    monkeypatch.setattr(jitcache, "done_marker",
+                        lambda name: marks.append(name) or tmp_path / f".{name}")
+    job = build_plan(cfg, out, world).jobs[0]
+    assert compile_ahead(world, cfg, out, job) is True
+    assert (tmp_path / ".compiled-ahead-generate").exists()
+    assert compile_ahead(world, cfg, out, job) is False
+    assert marks == ["compiled-ahead-generate"] * 2
+
+
 def test_heap_given_back_only_above_the_threshold(monkeypatch):
     from fallgen.pipeline import generate as G
 

@@ -107,16 +107,23 @@ def fewest_tilts(pose: Pose, at_least: int, spec: AgentSpec, visible: Callable[[
     return None, asked
 
 
+def hidden_cells(start: Pose, ok: np.ndarray, resolution: float, target_xy,
+                 spec: AgentSpec, sight: tuple) -> int | None:
+    """The expert's proof that no pose reachable from ``start`` sees the object centred at
+    ``target_xy`` (:func:`fallgen.nav.hidden.hidden_everywhere` over the cells within the
+    judge's reach; ``ok``: the simulator's move table, ``sight``: the occlusion bound's
+    arrays): how many cells it ran over where it holds, None where it does not."""
+    return hidden_everywhere(ok, resolution, (start.x, start.y), target_xy,
+                             SUCCESS_DISTANCE_M, spec.camera_height_m,
+                             STEP_M / (STEP_SAMPLES - 1), sight)
+
+
 def _prove_hidden(start: Pose, ok: np.ndarray, resolution: float, target_xy,
                   spec: AgentSpec, sight: tuple) -> None:
-    """:class:`NoPath` where the proof that no reachable pose sees the object holds
-    (:func:`fallgen.nav.hidden.hidden_everywhere`; ``ok``: the simulator's move table). A
-    search tries it once it has grown long (:data:`PROOF_AFTER_STATES`,
-    :data:`PROOF_AFTER_VERDICTS`): where it holds, the search would go on until it had entered
-    every state or hit its limits."""
-    cells = hidden_everywhere(ok, resolution, (start.x, start.y), target_xy,
-                              SUCCESS_DISTANCE_M, spec.camera_height_m,
-                              STEP_M / (STEP_SAMPLES - 1), sight)
+    """:class:`NoPath` where :func:`hidden_cells` holds. A search tries it once it has grown
+    long (:data:`PROOF_AFTER_STATES`, :data:`PROOF_AFTER_VERDICTS`): where it holds, the
+    search would go on until it had entered every state or hit its limits."""
+    cells = hidden_cells(start, ok, resolution, target_xy, spec, sight)
     if cells is not None:
         raise HiddenEverywhere(f"the scene hides the object from every reachable cell within "
                                f"reach ({cells} cells)")

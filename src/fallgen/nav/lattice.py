@@ -189,6 +189,12 @@ def rehash(hkeys, hval, size):
     return nk, nv
 
 
+def position_table(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """An empty table of positions' verdicts with 2 ``n`` slots: keys (-1: empty) and
+    values (grown by :func:`rehash`)."""
+    return np.full(2 * n, -1, np.int64), np.empty(2 * n, np.int32)
+
+
 @njit(cache=True)
 def _enter_positions(hkeys, hval, keys, vals):
     """Enter position verdicts (``keys`` from :func:`position_key`, ``vals`` -1 or -2) not in
@@ -375,8 +381,7 @@ class Lattice:
         self._closed = np.empty(n, np.bool_)
         self.coords = np.empty((n, 5), np.int16)
         # the hash table (open addressing, linear probing) at most 70 % full
-        self._hkeys = np.full(2 * n, -1, np.int64)
-        self._hval = np.empty(2 * n, np.int32)
+        self._hkeys, self._hval = position_table(n)
         self._open = np.empty(3 * n + 1, np.int64)
         self._found = np.empty(n, np.int64)
 

@@ -41,6 +41,7 @@ from fallgen.audio.mix import Binaural, BinauralClip, Listener
 from fallgen.audio.room import RirSettings, RoomAcoustics
 from fallgen.nav.agent import HEADINGS, VISIBLE_PIXELS, AgentSpec, Pose, run
 from fallgen.nav.expert import Expert, HiddenEverywhere, NoPath, SearchLimit
+from fallgen.nav.lattice import position_table, rehash
 from fallgen.nav.occupancy import OccupancyGrid
 from fallgen.physics.drop import instance_of, replay
 from fallgen.physics.events import FallEvent, event_variant
@@ -282,6 +283,37 @@ class EpisodeMaker:
         return Episode(episode_id, event, spawn, sees, clip, view, grid, grid.cell(centre), ex,
                        out.spl(ex.shortest_m), out.sna(ex.fewest_actions), energy, out.poses,
                        shots, t, tuple(float(x) for x in room.rt60()))
+
+    def compile_ahead(self, event: FallEvent, root_seed: int) -> None:
+        """Run once every compiled (Numba) function that making an episode can reach, on
+        ``event``: its episode 0 (made and dropped), the fall's replay, and the expert's proof
+        that no reachable pose sees the object, from the free cell nearest to it (the proof
+        runs only in attempts that are given up). A process that compiles them keeps ~250 MB
+        more (LLVM's) than one that loads them from the compiled-code cache
+        (:mod:`fallgen.jitcache`): a build calls this in a process of its own before its
+        workers start (:func:`fallgen.pipeline.generate.compile_ahead`)."""
+        try:
+            self.make(0, event, root_seed)
+        except Skip:
+            pass
+        replay(self.world, event)
+        if self._gl is None:
+            self._gl = GLContext(WIDTH)
+        settled = SettledRoom(self.world, event, self._gl, self.labels, self.spec,
+                              appearance=self.appearance)
+        try:
+            grid, r = settled.grid, settled.grid.resolution
+            ii, jj = np.nonzero(grid.clearance >= self.spec.radius_m + SPAWN_CLEARANCE_M + r / 2)
+            if len(ii):
+                xy = np.column_stack([(ii + 0.5) * r, (jj + 0.5) * r])
+                x, y = xy[int(np.argmin(np.linalg.norm(xy - settled.centre[:2], axis=1)))]
+                settled.hidden_cells(Pose(float(x), float(y), 0, 0))
+            m = settled.scene.model  # the convexity test of the faces of a mesh
+            SceneFaces(m, settled.data, [g for g in range(m.ngeom)
+                                         if int(m.geom_type[g]) == mujoco.mjtGeom.mjGEOM_MESH])
+        finally:
+            settled.close()
+        rehash(*position_table(2), 8)  # a long search's position table grown
 
     def _spawn(self, rng: np.random.Generator, grid: OccupancyGrid, centre: np.ndarray,
                camera: EgoCamera, data: mujoco.MjData) -> tuple[Pose, bool]:

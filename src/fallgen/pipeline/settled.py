@@ -21,7 +21,7 @@ import mujoco
 import numpy as np
 
 from fallgen.nav.agent import STEP_M, STEP_SAMPLES, VISIBLE_PIXELS, AgentSpec, Pose
-from fallgen.nav.expert import Expert, Limits, Plan, expert, plan_to_see
+from fallgen.nav.expert import Expert, Limits, Plan, expert, hidden_cells, plan_to_see
 from fallgen.nav.hidden import reachable_cells
 from fallgen.nav.occupancy import OccupancyGrid, geom_box_corners, occupancy, room_samples
 from fallgen.physics.drop import instance_of
@@ -167,6 +167,13 @@ class SettledRoom:
         return expert(start, self.grid, self.centre, self.corners, self.visible, self.spec,
                       limits=BUILD_LIMITS, may_see=self.may_see, unseen=self.unseen,
                       sight=self.occluders.kernel)
+
+    def hidden_cells(self, start: Pose) -> int | None:
+        """The expert's proof that no pose reachable from ``start`` sees the object
+        (:func:`fallgen.nav.expert.hidden_cells`): the cells it ran over where it holds."""
+        return hidden_cells(start, self.grid.move_table(self.spec.radius_m),
+                            self.grid.resolution, self.centre[:2], self.spec,
+                            self.occluders.kernel)
 
     def reachable_key(self, start: Pose) -> bytes | None:
         """A digest of the cells the agent can reach from ``start``, as the expert's proof
