@@ -66,7 +66,13 @@ def test_same_bytes_whatever_the_worker_count(tiny_build, digest):
     assert digest(base / "one", dirs) == digest(base / "two", dirs)
 
 
-def test_resume_redoes_only_missing_shards(tiny_build, tmp_path, cli, digest):
+def test_resume_redoes_only_missing_shards(tiny_build, tmp_path, cli, digest, monkeypatch):
+    """... and compiles ahead (unless marked done) before making it, in this process too."""
+    from fallgen.pipeline import generate as G
+
+    ahead = []
+    monkeypatch.setattr(G, "compile_ahead", lambda world, cfg, out, job, note=None:
+                        ahead.append(job.name))
     base, cfg = tiny_build
     root = tmp_path / "ds"
     shutil.copytree(base / "one", root)
@@ -78,6 +84,7 @@ def test_resume_redoes_only_missing_shards(tiny_build, tmp_path, cli, digest):
     assert cli("generate", "-c", str(cfg), "--out", str(root)) == 0
     assert victim.exists() and keep.stat().st_mtime_ns == mtime
     assert digest(root) == before
+    assert ahead == ["train-00001-of-00002"]
 
 
 def test_a_shard_loads_only_the_events_it_can_use(tiny_build):

@@ -312,9 +312,9 @@ def compile_ahead(world: World, cfg: BuildConfig, out: Path, job: ShardJob,
                   note: Callable[[str], None] | None = None) -> bool:
     """Compile every Numba function a shard's episodes can reach in a process of its own
     (:meth:`EpisodeMaker.compile_ahead` on ``job``'s first event), unless done before for
-    these sources (:func:`fallgen.jitcache.done_marker`); whether it ran. A worker that
+    these sources (:func:`fallgen.jitcache.done_marker`); whether it ran. A process that
     compiled them itself kept ~250 MB more at its peak (LLVM's, for the process's life) than
-    one that loads them: 1248 instead of 990 MB on the paper-size build."""
+    one that loads them: 1248 instead of 990 MB a worker on the paper-size build."""
     marker = jitcache.done_marker("compiled-ahead-generate")
     if marker is None or marker.exists():
         return False
@@ -323,7 +323,10 @@ def compile_ahead(world: World, cfg: BuildConfig, out: Path, job: ShardJob,
              "version of fallgen, about a minute)")
     list(parallel_map(_ahead, [job.episodes[0].event_id], _init,
                       (str(world.root), cfg, str(out)), 1))
-    marker.touch()
+    try:
+        marker.touch()
+    except OSError:  # a directory Numba can read but not write: compiled ahead each time
+        pass
     return True
 
 
@@ -568,13 +571,13 @@ def generate(world: World, cfg: BuildConfig, out: Path | None = None, workers: i
             # the modal models first, all cores on them: solving them inside the shard
             # workers as first needed cost each worker ~400 MB more at its peak
             precompute_modes(world, cfg, out, workers, on_done=modes_progress)
+        if todo and executor == "local":  # this process or its workers then only load them
+            compile_ahead(world, cfg, out, todo[0], note)
         if not todo:
             made = iter(done)
         elif executor == "local" and min(workers, len(todo)) <= 1:  # in this process
             made = itertools.chain(done, _in_process(world, cfg, todo, b.pools, out, b.stamps))
         else:
-            if executor == "local":
-                compile_ahead(world, cfg, out, todo[0], note)
             made = itertools.chain(done, parallel_map(
                 _work, [(j, b.pools, b.stamps.get(j.name)) for j in todo], _init,
                 (str(world.root), cfg, str(out)), min(workers, len(todo)), executor,
