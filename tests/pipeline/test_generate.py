@@ -134,27 +134,27 @@ def test_a_pool_build_compiles_ahead_once_per_version_of_the_sources(tiny_build,
 
 
 def test_heap_given_back_only_above_the_threshold(monkeypatch):
-    from fallgen.pipeline import generate as G
+    from fallgen.pipeline import heap
 
     calls = []
-    monkeypatch.setattr(G, "_MALLOC_TRIM", calls.append)
-    rss = G._resident_mb()
+    monkeypatch.setattr(heap, "_MALLOC_TRIM", calls.append)
+    rss = heap.resident_mb()
     assert rss > 10  # this process's resident memory, read from /proc
-    assert not G._trim_heap(above_mb=rss + 10_000) and calls == []
-    assert G._trim_heap(above_mb=0) and calls == [0]
+    assert not heap.trim_heap(above_mb=rss + 10_000) and calls == []
+    assert heap.trim_heap(above_mb=0) and calls == [0]
 
 
 def test_heap_trimmer_waits_for_growth_above_what_a_trim_left(monkeypatch):
-    from fallgen.pipeline import generate as G
+    from fallgen.pipeline import heap
 
     rss = iter([900, 850,  # above 896: trims, leaves 850
                 905, 913,  # above 896 but not 64 MB above 850: no trim
                 915, 820,  # 65 MB above 850: trims, leaves 820
                 890, 897, 860])  # the threshold rules again: 897 trims
     calls = []
-    monkeypatch.setattr(G, "_MALLOC_TRIM", calls.append)
-    monkeypatch.setattr(G, "_resident_mb", lambda: next(rss))
-    t = G.HeapTrimmer(above_mb=896, hysteresis_mb=64)
+    monkeypatch.setattr(heap, "_MALLOC_TRIM", calls.append)
+    monkeypatch.setattr(heap, "resident_mb", lambda: next(rss))
+    t = heap.HeapTrimmer(above_mb=896, hysteresis_mb=64)
     assert [t() for _ in range(6)] == [True, False, False, True, False, True]
     assert t.trims == len(calls) == 3 and t.left_mb == 860
 
