@@ -297,15 +297,11 @@ class EpisodeMaker:
         except Skip:
             pass
         replay(self.world, event)
-        if self._gl is None:
-            self._gl = GLContext(WIDTH)
         settled = SettledRoom(self.world, event, self._gl, self.labels, self.spec,
-                              appearance=self.appearance)
+                              appearance=self.appearance)  # make() has made the GL context
         try:
-            grid, r = settled.grid, settled.grid.resolution
-            ii, jj = np.nonzero(grid.clearance >= self.spec.radius_m + SPAWN_CLEARANCE_M + r / 2)
-            if len(ii):
-                xy = np.column_stack([(ii + 0.5) * r, (jj + 0.5) * r])
+            xy = self._free_cells(settled.grid)
+            if len(xy):
                 x, y = xy[int(np.argmin(np.linalg.norm(xy - settled.centre[:2], axis=1)))]
                 settled.hidden_cells(Pose(float(x), float(y), 0, 0))
             m = settled.scene.model  # the convexity test of the faces of a mesh
@@ -315,12 +311,18 @@ class EpisodeMaker:
             settled.close()
         rehash(*position_table(2), 8)  # a long search's position table grown
 
+    def _free_cells(self, grid: OccupancyGrid) -> np.ndarray:
+        """(N, 2) centres of the cells where the agent's disk, plus ``SPAWN_CLEARANCE_M``,
+        touches nothing anywhere within half a cell of the centre."""
+        r = grid.resolution
+        ii, jj = np.nonzero(grid.clearance >= self.spec.radius_m + SPAWN_CLEARANCE_M + r / 2)
+        return np.column_stack([(ii + 0.5) * r, (jj + 0.5) * r])
+
     def _spawn(self, rng: np.random.Generator, grid: OccupancyGrid, centre: np.ndarray,
                camera: EgoCamera, data: mujoco.MjData) -> tuple[Pose, bool]:
         spec = self.spec
         r = grid.resolution
-        ii, jj = np.nonzero(grid.clearance >= spec.radius_m + SPAWN_CLEARANCE_M + r / 2)
-        xy = np.column_stack([(ii + 0.5) * r, (jj + 0.5) * r])
+        xy = self._free_cells(grid)
         far = np.linalg.norm(xy - centre[None, :2], axis=1) >= MIN_SPAWN_DISTANCE_M
         cells = xy[far]
         if len(cells) == 0:

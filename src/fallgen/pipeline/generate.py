@@ -21,7 +21,6 @@ from __future__ import annotations
 import dataclasses
 import glob
 import itertools
-import os
 import time
 from collections import Counter
 from collections.abc import Callable, Collection, Iterator
