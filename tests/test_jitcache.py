@@ -121,11 +121,9 @@ def test_a_new_version_removes_directories_unused_for_a_week(tmp_path, monkeypat
 
 def test_the_mark_of_compiled_code_is_named_by_the_sources(tmp_path, monkeypatch):
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
-    pkg = tmp_path / "pkg"
-    pkg.mkdir()
-    (pkg / "a.py").write_text("X = 1\n")
+    pkg = _package(tmp_path, 1e-3)
     first = jitcache.done_marker("compiled", pkg)
-    (pkg / "a.py").write_text("X = 2\n")
+    _package(tmp_path, 2e-4)
     assert first.parent == tmp_path and jitcache.done_marker("compiled", pkg) != first
     monkeypatch.delenv("NUMBA_CACHE_DIR")
     assert jitcache.done_marker("compiled", pkg) is None
