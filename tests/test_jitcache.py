@@ -76,6 +76,17 @@ def test_the_directory_changes_with_any_source_file(tmp_path):
     assert len({a, b, c}) == 3
 
 
+def test_the_same_sources_elsewhere_name_another_directory(tmp_path):
+    """Numba keys compiled code by its file's full path: a second checkout of the same sources
+    gets its own directory and mark (a mark shared with the first would skip compiling ahead
+    where nothing is compiled)."""
+    a, b = tmp_path / "a", tmp_path / "b"
+    a.mkdir()
+    b.mkdir()
+    assert jitcache.source_digest(_package(a, 1e-3)) != jitcache.source_digest(_package(b, 1e-3))
+    assert jitcache.source_digest(_package(a, 1e-3)) == jitcache.source_digest(a / "pkg")
+
+
 def test_fallgen_points_numba_at_its_sources_directory():
     """Importing fallgen set Numba's cache directory (unless the user had): the directory of
     fallgen's own sources under the fallgen cache."""

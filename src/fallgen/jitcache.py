@@ -1,5 +1,5 @@
 """Where Numba keeps fallgen's compiled functions: a directory named by a digest of every
-source file of the package (``$FALLGEN_CACHE/numba/<digest>``).
+source file of the package and of where it lies (``$FALLGEN_CACHE/numba/<digest>``).
 
 Numba's own cache (``cache=True``, beside each source file by default) is keyed by the source
 file of the compiled function alone. A function compiles in the functions it calls from other
@@ -31,8 +31,12 @@ KEEP_S = 7 * 24 * 3600.0
 
 
 def source_digest(package_dir: Path) -> str:
-    """A digest of every ``.py`` file under ``package_dir``: their paths and bytes."""
+    """A digest of every ``.py`` file under ``package_dir``: their paths and bytes, and where
+    the package lies. Numba finds a function's compiled code by its file's full path, so two
+    checkouts of the same sources cannot share it: each gets its own directory (and its own
+    :func:`done_marker`, which would otherwise say compiled what the other checkout compiled)."""
     h = hashlib.blake2b(digest_size=8)
+    h.update(str(package_dir.resolve()).encode() + b"\0")
     for p in sorted(package_dir.rglob("*.py")):
         if "__pycache__" in p.parts:
             continue
