@@ -112,8 +112,9 @@ def stats(
                   "-" if b["skip_rate"] is None else f"{b['skip_rate']:.0%}")
     console.print(t)
     console.print(f"skips: {s['skips_by_reason'] or 'none'}; episodes on a fallback event: "
-                  f"{s['episodes_on_a_fallback_event']}; spawns that already see the object: "
-                  f"{s['spawn_sees_object']}")
+                  f"{s['episodes_on_a_fallback_event']}; distinct falls: {s['distinct_falls']} "
+                  f"({s['episodes_sharing_a_fall']} episodes share one); spawns that already "
+                  f"see the object: {s['spawn_sees_object']}")
     t = Table("goal", "measured", "bound", "met")
     for name, g in s["goals"].items():
         v = g["value"]

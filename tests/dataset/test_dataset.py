@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import shutil
+from collections import Counter
 
 import numpy as np
 import pyarrow.parquet as pq
@@ -245,6 +246,9 @@ def test_stats_counts_and_bias(tiny_build, tmp_path, cli):
     assert rehearsed == sum(pq.read_metadata(p).num_rows
                             for p in (base / "one" / "rehearsal").glob("*.parquet"))
     assert sum(b["episode_share"] for b in s["bias"].values()) == pytest.approx(1.0)
+    falls = Counter(r["event_id"] for r in rows)
+    assert s["distinct_falls"] == len(falls)
+    assert s["episodes_sharing_a_fall"] == sum(n for n in falls.values() if n > 1)
     assert cli("stats", str(base / "one"), "--json", str(tmp_path / "s.json")) == 0
     assert json.loads((tmp_path / "s.json").read_text())["episodes"] == 6
 

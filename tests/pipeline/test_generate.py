@@ -88,8 +88,9 @@ def test_resume_redoes_only_missing_shards(tiny_build, tmp_path, cli, digest, mo
 
 
 def test_a_shard_loads_only_the_events_it_can_use(tiny_build):
-    """Planning reads only ids and kinds; a shard's events are its episodes' events and their
-    fallbacks, loaded from their own variants' files, and equal to the full load's."""
+    """Planning reads only ids and kinds; a shard's events are its episodes' events, its
+    spares and their fallbacks, loaded from their own variants' files, and equal to the full
+    load's."""
     from fallgen.pipeline.generate import (MAX_EVENT_ATTEMPTS, build_plan, event_refs,
                                            job_event_ids, load_events)
 
@@ -105,8 +106,9 @@ def test_a_shard_loads_only_the_events_it_can_use(tiny_build):
     for job in b.jobs:
         ids = job_event_ids(job, b.pools)
         assert {p.event_id for p in job.episodes} <= ids
-        assert len(ids) <= len(job.episodes) * MAX_EVENT_ATTEMPTS
-        assert all(i in b.pools[(job.split, job.room_kind)] for i in ids)
+        assert len(ids) <= len(job.episodes) * MAX_EVENT_ATTEMPTS + len(job.spares)
+        assert ids <= set(b.pools[(job.split, job.room_kind)]) | set(job.spares)
+        assert set(job.spares) <= ids
         loaded = load_events(cfg, out, ids)
         assert [e.event_id for e in loaded] == sorted(ids)
         assert all(e == everything[e.event_id] for e in loaded)
@@ -230,3 +232,44 @@ def test_a_shard_accounts_for_the_time_of_attempts_given_up(tiny_build, tmp_path
     assert res.skips["episode_dropped"] == len(job.episodes)
     assert dict(res.timings_s) == pytest.approx(
         {"skipped:maps": 0.25 * maker.calls, "skipped:planning": 1.0 * maker.calls})
+
+
+def test_an_episode_whose_event_is_given_up_takes_its_shards_spares_first(tiny_build, tmp_path):
+    """An episode whose event cannot be used tries its shard's spare events (those no episode
+    plans) before the events planned for other episodes, and a spare tried is used up: a
+    later episode does not try it again."""
+    from fallgen.config import load_config
+    from fallgen.pipeline.episode import Skip
+    from fallgen.pipeline.generate import (MAX_EVENT_ATTEMPTS, build_plan, job_event_ids,
+                                           load_events, make_shard)
+
+    base, cfg_file = tiny_build
+    cfg, out = load_config(cfg_file), base / "one"
+    b = build_plan(cfg, out)
+    job = next(j for j in b.jobs if j.spares)
+    events = {e.event_id: e for e in load_events(cfg, out, job_event_ids(job, b.pools))}
+
+    class GivesUp:
+        labels = ("a",)
+        asked: list[tuple[int, str]] = []
+
+        def retain_rooms(self, variant_ids):
+            pass
+
+        def make(self, episode_id, event, *args, **kwargs):
+            self.asked.append((episode_id, event.event_id))
+            raise Skip("no_path", "test")
+
+    maker = GivesUp()
+    make_shard(None, maker, cfg, job, events, b.pools, tmp_path, trim=lambda: False)
+    first = job.episodes[0]
+    tried = [e for i, e in maker.asked if i == first.episode_id]
+    assert tried[0] == first.event_id
+    assert tried[1:1 + len(job.spares)] == list(job.spares)[:MAX_EVENT_ATTEMPTS - 1]
+    assert len(tried) == len(set(tried)) <= MAX_EVENT_ATTEMPTS
+    later = [e for i, e in maker.asked if i != first.episode_id]
+    assert not set(later) & set(tried[1:1 + len(job.spares)])
+    # every episode still tries its own event first
+    assert [e for i, e in maker.asked if (i, e) in {(p.episode_id, p.event_id)
+                                                    for p in job.episodes}] == \
+        [p.event_id for p in job.episodes]

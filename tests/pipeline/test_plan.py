@@ -3,13 +3,14 @@ ids in split-then-kind order, shards one kind each, the same plan for the same s
 
 from __future__ import annotations
 
+import dataclasses
 from collections import Counter
 from types import SimpleNamespace
 
 import pytest
 
 from fallgen.pipeline.generate import shard_jobs
-from fallgen.pipeline.plan import kind_counts, plan, pools_of
+from fallgen.pipeline.plan import deal_spares, kind_counts, plan, pools_of, spare_events
 
 
 def _events(n_kitchen: int, n_study: int):
@@ -60,3 +61,26 @@ def test_shards_hold_one_kind_and_are_numbered_across_kinds():
     for j in jobs:
         assert {e.room_kind for e in j.episodes} == {j.room_kind}
     assert sorted(e.episode_id for j in jobs for e in j.episodes) == list(range(18))
+
+
+def test_every_event_is_planned_or_a_spare_and_each_spare_goes_to_one_shard():
+    """A pool's events beyond its episodes are its spares: with the planned events they are
+    every rehearsed event once, they keep to their kind, and the shards of a
+    (split, kind) share them out in runs in proportion to their episodes."""
+    events = _events(40, 30)
+    episodes = (20, 6, 6)
+    p = plan(events, episodes, 3)
+    spares = spare_events(events, episodes, 3)
+    planned = {e.event_id for e in p}
+    every = [e for v in spares.values() for e in v]
+    assert len(every) == len(set(every)) == 70 - len(planned) > 0
+    assert not set(every) & planned
+    kind = {e.event_id: e.room_kind for e in events}
+    assert all(kind[e] == k for (_, k), v in spares.items() for e in v)
+    jobs = shard_jobs(p, 4, spares)
+    dealt = [e for j in jobs for e in j.spares]
+    assert sorted(dealt) == sorted(every)
+    assert all(set(j.spares) <= set(spares[(j.split, j.room_kind)]) for j in jobs)
+    assert deal_spares(list("abcdefg"), [4, 4, 2]) == [("a", "b"), ("c", "d", "e"), ("f", "g")]
+    assert deal_spares([], [3, 1]) == [(), ()]
+    assert shard_jobs(p, 4) == [dataclasses.replace(j, spares=()) for j in jobs]

@@ -22,8 +22,8 @@ from fallgen.audio.acoustics import RT60_GOAL_S, rt60_goal_from_model
 from fallgen.config import SPLITS
 from fallgen.dataset.writer import shard_meta
 
-COLUMNS = ["episode_id", "split", "room_kind", "room_variant", "category", "audio_material",
-           "zone_kind", "expert_actions", "expert_path_m", "shortest_path_m",
+COLUMNS = ["episode_id", "event_id", "split", "room_kind", "room_variant", "category",
+           "audio_material", "zone_kind", "expert_actions", "expert_path_m", "shortest_path_m",
            "audio_peak_db_spl", "audio_leq_db_spl", "event_attempts", "skipped_events",
            "spawn_sees_object"]
 #: read when present (datasets built before they existed lack them)
@@ -144,6 +144,11 @@ def stats(root: str | Path) -> dict:
     skips += [(e, reason) for _, tried in dropped for e, reason in tried]
     out["spawn_sees_object"] = int(sum(r["spawn_sees_object"] for r in rows))
     out["episodes_on_a_fallback_event"] = int(sum(r["event_attempts"] > 1 for r in rows))
+    falls = Counter(r["event_id"] for r in rows)
+    # episodes that share a fall (the same event, another spawn): a build that has events to
+    # spare gives each episode its own
+    out["distinct_falls"] = len(falls)
+    out["episodes_sharing_a_fall"] = int(sum(n for n in falls.values() if n > 1))
     out["skips_by_reason"] = _sorted(Counter(reason for _, reason in skips))
     rehearsed = Counter(events.values())
     used = Counter(r["zone_kind"] for r in rows)

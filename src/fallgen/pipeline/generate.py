@@ -11,9 +11,12 @@ are written from the shards once every one of them checks (:func:`finalize_build
 writes a dataset directory at a time (``--shard-index`` runs share it, one per index).
 
 An episode whose event cannot be used (:class:`~fallgen.pipeline.episode.Skip`: the replay with
-the agent diverged, no free spawn, no reachable pose sees the object) takes the next event of
-its split's pool, in a fixed order, up to ``MAX_EVENT_ATTEMPTS`` times; the row records the event
-used and the attempts, and the skip reasons are counted.
+the agent diverged, no free spawn, no reachable pose sees the object) takes its shard's next
+spare event (one its split's pool holds beyond the episodes, given to no other shard: no two
+episodes share a fall while a spare is left), then the events after its own in the pool, up to
+``MAX_EVENT_ATTEMPTS`` events; a spare tried is used up. The order is fixed by the shard's
+episodes alone, so a shard is the same whoever makes it. The row records the event used and
+the attempts, and the skip reasons are counted.
 """
 
 from __future__ import annotations
@@ -47,7 +50,7 @@ from fallgen.physics.rehearse import rehearsal_dir
 from fallgen.pipeline.episode import EpisodeMaker, Skip
 from fallgen.pipeline.executor import ProcessUsage, parallel_map, process_usage, select_units
 from fallgen.pipeline.heap import HeapTrimmer, trim_heap
-from fallgen.pipeline.plan import PlannedEpisode, plan, pools_of
+from fallgen.pipeline.plan import PlannedEpisode, deal_spares, plan, pools_of, spare_events
 from fallgen.world.library import World, load_world
 
 MAX_EVENT_ATTEMPTS = 10
@@ -116,9 +119,26 @@ def load_events(cfg: BuildConfig, out: Path | None = None,
 
 
 def job_event_ids(job: ShardJob, pools: dict[tuple[str, str], list[str]]) -> set[str]:
-    """Every event a shard can use: each planned episode's event and the fallbacks after it
-    in its pool."""
-    return {e for p in job.episodes for e in _attempts(p, pools)}
+    """Every event a shard can use: each planned episode's event, its spares and the
+    fallbacks after each event in its pool."""
+    return {e for p in job.episodes for e in _attempts(p, pools)} | set(job.spares)
+
+
+def _tries(p: PlannedEpisode, pools: dict[tuple[str, str], list[str]],
+           spares: Iterator[str]) -> Iterator[str]:
+    """The events episode ``p`` tries, in order: its planned event, then the shard's spares
+    not used up yet (``spares``: one iterator for the shard, advanced only as far as episodes
+    need), then the ones after its event in its pool; ``MAX_EVENT_ATTEMPTS`` at most, none
+    twice."""
+    first, *after = _attempts(p, pools)
+    yield first
+    tried = {first}
+    for e in itertools.chain(spares, after):
+        if len(tried) >= MAX_EVENT_ATTEMPTS:
+            return
+        if e not in tried:
+            tried.add(e)
+            yield e
 
 
 def _attempts(p: PlannedEpisode, pools: dict[tuple[str, str], list[str]]) -> list[str]:
@@ -136,15 +156,21 @@ class ShardJob:
     count: int
     room_kind: str
     episodes: tuple[PlannedEpisode, ...]
+    #: events of the split's pool no episode plans, this shard's own (taken in turn by its
+    #: episodes whose own event cannot be used)
+    spares: tuple[str, ...] = ()
 
     @property
     def name(self) -> str:
         return shard_name(self.split, self.index, self.count)
 
 
-def shard_jobs(planned: list[PlannedEpisode], per_shard: int) -> list[ShardJob]:
+def shard_jobs(planned: list[PlannedEpisode], per_shard: int,
+               spares: dict[tuple[str, str], list[str]] | None = None) -> list[ShardJob]:
     """Each split's episodes in shards of ``per_shard``, one room kind per shard (so the
-    cross-scene splits are sets of whole files), numbered across the split's kinds."""
+    cross-scene splits are sets of whole files), numbered across the split's kinds; each
+    (split, kind)'s ``spares`` (:func:`fallgen.pipeline.plan.spare_events`) dealt to its
+    shards in proportion to their episodes."""
     jobs = []
     for split in SPLITS:
         eps = [p for p in planned if p.split == split]
@@ -152,9 +178,11 @@ def shard_jobs(planned: list[PlannedEpisode], per_shard: int) -> list[ShardJob]:
         chunks = []
         for kind in kinds:
             mine = [p for p in eps if p.room_kind == kind]
-            chunks += [(kind, tuple(mine[i:i + per_shard])) for i in range(0, len(mine), per_shard)]
-        for i, (kind, chunk) in enumerate(chunks):
-            jobs.append(ShardJob(split, i, len(chunks), kind, chunk))
+            cut = [tuple(mine[i:i + per_shard]) for i in range(0, len(mine), per_shard)]
+            extra = deal_spares((spares or {}).get((split, kind), []), [len(c) for c in cut])
+            chunks += [(kind, c, x) for c, x in zip(cut, extra)]
+        for i, (kind, chunk, extra) in enumerate(chunks):
+            jobs.append(ShardJob(split, i, len(chunks), kind, chunk, extra))
     return jobs
 
 
@@ -186,11 +214,12 @@ def make_shard(world: World, maker: EpisodeMaker, cfg: BuildConfig, job: ShardJo
     # a worker keeps per-variant rooms only for the variants this shard's events fall in (one
     # room kind's: a worker meets all 64 variants, ~1.6 MB each, over a paper-size build)
     maker.retain_rooms({e.room_variant for e in events.values()})
+    spares = iter(job.spares)
     try:
         for p in job.episodes:
             trim()
             skipped: list[tuple[str, str]] = []
-            for event_id in _attempts(p, pools):
+            for event_id in _tries(p, pools, spares):
                 ev = events[event_id]
                 try:
                     ep = maker.make(p.episode_id, ev, cfg.root_seed, cfg.generate.frames)
@@ -343,17 +372,19 @@ def build_plan(cfg: BuildConfig, out: Path | None = None, world: World | None = 
     shas = verified_rehearsal(world, cfg, out)
     d = rehearsal_dir(cfg, out)
     try:
-        planned = plan(event_refs(cfg, out, [d / f"{v}.parquet" for v in shas]),
-                       cfg.generate.episodes, cfg.root_seed)
+        refs = event_refs(cfg, out, [d / f"{v}.parquet" for v in shas])
+        planned = plan(refs, cfg.generate.episodes, cfg.root_seed)
+        spares = spare_events(refs, cfg.generate.episodes, cfg.root_seed)
     except ValueError as e:
         raise InputError(d, "events", f"{e}; rehearse more (rehearse.zones, events_per_zone, "
                          "max_trials_per_zone) or ask for fewer episodes") from None
-    jobs = shard_jobs(planned, cfg.generate.episodes_per_shard)
+    jobs = shard_jobs(planned, cfg.generate.episodes_per_shard, spares)
     pools = pools_of(planned)
     common = integrity.build_inputs(world, cfg)
     stamps = {}
     for j in jobs:
         tried = [[p.episode_id, p.split, p.room_kind, _attempts(p, pools)] for p in j.episodes]
+        tried.append(["spares", list(j.spares)])
         variants = {event_variant(e) for e in job_event_ids(j, pools)}
         stamps[j.name] = integrity.shard_stamp(world, common, j.name, tried, variants, shas)
     return Build(jobs, pools, stamps, shas, common)

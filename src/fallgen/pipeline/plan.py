@@ -10,8 +10,11 @@ over the kinds in sorted order. The rehearsed events of each kind (sorted by id,
 not depend on file order) are shuffled once with the root seed and dealt to the splits in
 proportion to their episode counts, so no event is shared between splits; within a (split,
 kind), episode k uses its pool's events in turn (k mod the pool size: with more episodes than
-events an event returns with a new spawn and a new sound texture). Each episode then draws
-everything else from its own generator (``episode_rng``).
+events an event returns with a new spawn and a new sound texture). The events a pool holds
+beyond its episodes (the spares) are dealt to the (split, kind)'s shards, each its own run: an
+episode whose event cannot be used takes its shard's next spare, so episodes share a fall only
+once a shard has run out of them. Each episode then draws everything else from its own
+generator (``episode_rng``).
 """
 
 from __future__ import annotations
@@ -73,6 +76,43 @@ def kind_counts(n: int, kinds: list[str]) -> dict[str, int]:
 def plan(events: Sequence[EventLike], episodes: tuple[int, ...], root_seed: int
          ) -> list[PlannedEpisode]:
     """The build's episodes from its events (anything with ``event_id`` and ``room_kind``)."""
+    pools, per_kind = _dealt(events, episodes, root_seed)
+    out, eid = [], 0
+    for split, counts in zip(SPLITS, per_kind):
+        for kind in sorted(counts):
+            pool = pools[(split, kind)]
+            for k in range(counts[kind]):
+                out.append(PlannedEpisode(eid, split, kind, pool[k % len(pool)]))
+                eid += 1
+    return out
+
+
+def spare_events(events: Sequence[EventLike], episodes: tuple[int, ...], root_seed: int
+                 ) -> dict[tuple[str, str], list[str]]:
+    """Each (split, kind)'s events that :func:`plan` deals to it but gives no episode (its
+    pool holds more events than it has episodes), in pool order: what an episode whose own
+    event cannot be used takes first, so that no two episodes share a fall while any is left
+    (:func:`deal_spares` gives each shard its own)."""
+    pools, per_kind = _dealt(events, episodes, root_seed)
+    return {(split, kind): pools[(split, kind)][counts[kind]:]
+            for split, counts in zip(SPLITS, per_kind) for kind in sorted(counts)}
+
+
+def deal_spares(spares: Sequence[str], sizes: Sequence[int]) -> list[tuple[str, ...]]:
+    """``spares`` cut into consecutive runs in proportion to ``sizes`` (the episodes of each
+    of a split's shards of one kind): every spare goes to exactly one shard."""
+    total, out, done = sum(sizes), [], 0
+    for n in sizes:
+        a = len(spares) * done // total if total else 0
+        done += n
+        b = len(spares) * done // total if total else 0
+        out.append(tuple(spares[a:b]))
+    return out
+
+
+def _dealt(events: Sequence[EventLike], episodes: tuple[int, ...], root_seed: int
+           ) -> tuple[dict[tuple[str, str], list[str]], list[dict[str, int]]]:
+    """Each (split, kind)'s pool of events and each split's episodes per kind."""
     if not events:
         raise ValueError("no fall events to make episodes from")
     ids = sorted(e.event_id for e in events)
@@ -89,14 +129,7 @@ def plan(events: Sequence[EventLike], episodes: tuple[int, ...], root_seed: int
         wanted = tuple(c[kind] for c in per_kind)
         for split, pool in zip(SPLITS, _deal(order, wanted, kind)):
             pools[(split, kind)] = pool
-    out, eid = [], 0
-    for split, counts in zip(SPLITS, per_kind):
-        for kind in kinds:
-            pool = pools[(split, kind)]
-            for k in range(counts[kind]):
-                out.append(PlannedEpisode(eid, split, kind, pool[k % len(pool)]))
-                eid += 1
-    return out
+    return pools, per_kind
 
 
 def pools_of(planned: list[PlannedEpisode]) -> dict[tuple[str, str], list[str]]:
