@@ -216,7 +216,9 @@ def dataset_stats(src) -> str | None:
     e = d["expert"]
     out = _table(["split", *kinds, "total"], rows) + "\n"
     out += (f"{d['episodes']} episodes in {d['room_variants']} room variants "
-            f"({d.get('dropped_episodes', 0)} planned episodes dropped); "
+            f"({d.get('dropped_episodes', 0)} planned episodes dropped)"
+            + (f" from {d['distinct_falls']} distinct falls ({d['episodes_sharing_a_fall']} "
+               "episodes share one)" if "distinct_falls" in d else "") + "; "
             f"{len(d['by_category'])} categories, {len(d['by_audio_material'])} audio "
             f"materials, {len(d['by_zone_kind'])} zone kinds. The expert: "
             f"{e['actions']['mean']:.1f} actions on average (median {e['actions']['p50']:.0f}, "
