@@ -234,20 +234,24 @@ def test_a_shard_accounts_for_the_time_of_attempts_given_up(tiny_build, tmp_path
         {"skipped:maps": 0.25 * maker.calls, "skipped:planning": 1.0 * maker.calls})
 
 
-def test_an_episode_whose_event_is_given_up_takes_its_shards_spares_first(tiny_build, tmp_path):
+def test_an_episode_whose_event_is_given_up_takes_its_shards_spares_first(tmp_path):
     """An episode whose event cannot be used tries its shard's spare events (those no episode
     plans) before the events planned for other episodes, and a spare tried is used up: a
     later episode does not try it again."""
-    from fallgen.config import load_config
-    from fallgen.pipeline.episode import Skip
-    from fallgen.pipeline.generate import (MAX_EVENT_ATTEMPTS, build_plan, job_event_ids,
-                                           load_events, make_shard)
+    from types import SimpleNamespace
 
-    base, cfg_file = tiny_build
-    cfg, out = load_config(cfg_file), base / "one"
-    b = build_plan(cfg, out)
-    job = next(j for j in b.jobs if j.spares)
-    events = {e.event_id: e for e in load_events(cfg, out, job_event_ids(job, b.pools))}
+    from fallgen.pipeline.episode import Skip
+    from fallgen.pipeline.generate import MAX_EVENT_ATTEMPTS, make_shard, shard_jobs
+    from fallgen.pipeline.plan import plan, pools_of, spare_events
+
+    events = [SimpleNamespace(event_id=f"k{i:03d}", room_kind="kitchen", room_variant="v")
+              for i in range(20)]
+    planned = plan(events, (4, 0, 0), root_seed=1)
+    jobs = shard_jobs(planned, 4, spare_events(events, (4, 0, 0), 1))
+    assert len(jobs) == 1
+    job, pools = jobs[0], pools_of(planned)
+    spares = list(job.spares)
+    assert len(spares) == 16
 
     class GivesUp:
         labels = ("a",)
@@ -261,15 +265,16 @@ def test_an_episode_whose_event_is_given_up_takes_its_shards_spares_first(tiny_b
             raise Skip("no_path", "test")
 
     maker = GivesUp()
-    make_shard(None, maker, cfg, job, events, b.pools, tmp_path, trim=lambda: False)
-    first = job.episodes[0]
-    tried = [e for i, e in maker.asked if i == first.episode_id]
-    assert tried[0] == first.event_id
-    assert tried[1:1 + len(job.spares)] == list(job.spares)[:MAX_EVENT_ATTEMPTS - 1]
-    assert len(tried) == len(set(tried)) <= MAX_EVENT_ATTEMPTS
-    later = [e for i, e in maker.asked if i != first.episode_id]
-    assert not set(later) & set(tried[1:1 + len(job.spares)])
-    # every episode still tries its own event first
-    assert [e for i, e in maker.asked if (i, e) in {(p.episode_id, p.event_id)
-                                                    for p in job.episodes}] == \
-        [p.event_id for p in job.episodes]
+    cfg = SimpleNamespace(root_seed=1, generate=SimpleNamespace(frames="first"))
+    make_shard(None, maker, cfg, job, {e.event_id: e for e in events}, pools, tmp_path,
+               trim=lambda: False)
+    by_episode = [[e for i, e in maker.asked if i == p.episode_id] for p in job.episodes]
+    own = [p.event_id for p in job.episodes]
+    # the first takes its own event, then the first nine spares; the second its own, then the
+    # last seven spares (none drawn and left untried), then the events planned after its own;
+    # the others have no spare left
+    assert by_episode[0] == [own[0], *spares[:MAX_EVENT_ATTEMPTS - 1]]
+    assert by_episode[1][:8] == [own[1], *spares[MAX_EVENT_ATTEMPTS - 1:]]
+    assert by_episode[1][8:] == [own[2], own[3]]
+    assert by_episode[2] == [own[2], own[3], own[0], own[1]]
+    assert all(len(t) == len(set(t)) for t in by_episode)

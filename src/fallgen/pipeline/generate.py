@@ -133,12 +133,14 @@ def _tries(p: PlannedEpisode, pools: dict[tuple[str, str], list[str]],
     first, *after = _attempts(p, pools)
     yield first
     tried = {first}
+    if len(tried) >= MAX_EVENT_ATTEMPTS:
+        return
     for e in itertools.chain(spares, after):
-        if len(tried) >= MAX_EVENT_ATTEMPTS:
-            return
         if e not in tried:
             tried.add(e)
             yield e
+            if len(tried) >= MAX_EVENT_ATTEMPTS:  # before a spare is drawn that is not tried
+                return
 
 
 def _attempts(p: PlannedEpisode, pools: dict[tuple[str, str], list[str]]) -> list[str]:
