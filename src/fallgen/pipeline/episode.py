@@ -309,7 +309,7 @@ class EpisodeMaker:
                                          if int(m.geom_type[g]) == mujoco.mjtGeom.mjGEOM_MESH])
         finally:
             settled.close()
-        rehash(*position_table(2), 8)  # a long search's position table grown
+        rehash(position_table(2), 8)  # a long search's position table grown
 
     def _free_cells(self, grid: OccupancyGrid) -> np.ndarray:
         """(N, 2) centres of the cells where the agent's disk, plus ``SPAWN_CLEARANCE_M``,
