@@ -24,6 +24,7 @@ import numpy as np
 
 from fallgen.physics import contact_kernel as K
 from fallgen.physics import mjraw
+from fallgen.physics import settle_kernel as S
 
 KINDS = ("impact", "scrape", "roll")
 
@@ -124,8 +125,8 @@ class ContactRecorder:
         s = self._sweep.tolist()
         return (s[K.W_XLO], s[K.W_YLO]), (s[K.W_XHI], s[K.W_YHI])
 
-    def step(self, d: mujoco.MjData, n: int = 1) -> None:
-        """``mj_step`` ``n`` times, recording every step."""
+    def _attach(self, d: mujoco.MjData) -> None:
+        """Follow ``d`` from its current state (the first call), or check it is the one."""
         if self._events is not None:
             raise RuntimeError("the recorder is finished")
         if self._data is None:
@@ -137,6 +138,10 @@ class ContactRecorder:
             self._sweep[:] = (x, x, y, y)
         elif d is not self._data:
             raise ValueError("a recorder follows one MjData")
+
+    def step(self, d: mujoco.MjData, n: int = 1) -> None:
+        """``mj_step`` ``n`` times, recording every step."""
+        self._attach(d)
         qvel, xmat, xpos, qpos = self._views
         while n > 0:
             n -= K.run(self._step_fn, self.m._address, d._address, n, self.body, self._bodyid,
@@ -145,6 +150,35 @@ class ContactRecorder:
                        self._vi, self._order, self._rank)
             if n > 0:
                 self._grow()
+
+    def settle(self, d: mujoco.MjData, qadr: int, max_steps: int, chunk: int, hold: int,
+               window: int, every: int, replay: bool, criteria, bound, watched: list[int]
+               ) -> tuple[int, bool, bool, float | None, float, float]:
+        """The loop of :func:`fallgen.physics.settle.simulate_until_settled` (its arguments;
+        ``bound``: an :class:`~fallgen.physics.settle.EnergyFloor` or None), recording every
+        step, compiled (:mod:`fallgen.physics.settle_kernel`): (steps, unstable, gave up,
+        settled at or None, largest speed, lowest z)."""
+        self._attach(d)
+        qvel, xmat, xpos, qpos = self._views
+        ss, sf, poses = S.state(max_steps, chunk, hold, window, every, replay, bound is not None)
+        sp = np.zeros(S.N_SP)
+        sp[[S.SP_LIN, S.SP_ANG, S.SP_POSE_M, S.SP_POSE_RAD, S.SP_DT]] = (
+            criteria.lin_tol_mps, criteria.ang_tol_radps, criteria.pose_tol_m,
+            criteria.pose_tol_rad, self.dt)
+        if bound is not None:
+            sp[[S.SP_MASS, S.SP_I0, S.SP_I1, S.SP_I2, S.SP_G, S.SP_FLOOR]] = (
+                bound.mass, *bound.inertia, bound.g, bound.floor_z)
+        pose, xipos = d.qpos[qadr:qadr + 7], d.xipos[self.body]
+        watch = np.asarray(watched, np.int64)
+        while S.settle_steps(self._step_fn, self.m._address, d._address, self.body,
+                             self._bodyid, self._friction, self._pyramidal, self._layout, qvel,
+                             xmat, xpos, qpos, self._params, self._state, self._sweep, self._ei,
+                             self._ef, self._vf, self._vi, self._order, self._rank, pose,
+                             d.warning.number, watch, xipos, sp, ss, sf, poses) == S.GROW:
+            self._grow()
+        return (int(ss[S.SS_STEPS]), bool(ss[S.SS_UNSTABLE]), bool(ss[S.SS_GAVE_UP]),
+                float(sf[S.SF_SETTLED_AT]) if ss[S.SS_SETTLED] else None,
+                float(sf[S.SF_MAX_SPEED]), float(sf[S.SF_MIN_Z]))
 
     def _grow(self) -> None:
         self._vf = np.concatenate([self._vf, np.zeros_like(self._vf)])

@@ -20,8 +20,8 @@ import numpy as np
 from fallgen.config import RehearseConfig
 from fallgen.physics.contacts import ContactEvent, ContactRecorder
 from fallgen.physics.events import GRAVITY, FallEvent, ObjectSpec, Placement, fall_height_m
-from fallgen.physics.settle import (SettleCriteria, SettleResult, mujoco_warnings,
-                                   simulate_until_settled)
+from fallgen.physics.settle import (EnergyFloor, SettleCriteria, SettleResult,
+                                   mujoco_warnings, simulate_until_settled)
 from fallgen.world.geometry import BoxSet
 from fallgen.world.library import World
 from fallgen.world.objects import ObjectInstance
@@ -218,22 +218,12 @@ def _simulate(world: World, variant: RoomVariant, objs: list[PlacedObject], linv
     return res, rec.finish(), d.xipos[b].copy(), float(m.body_mass[b]), overlap, scene
 
 
-def _below_for_good(m: mujoco.MjModel, body: int, floor_z: float):
+def _below_for_good(m: mujoco.MjModel, body: int, floor_z: float) -> EnergyFloor:
     """``give_up(data)``: whether body ``body`` (the only moving one) can no longer bring its
-    centre of mass up to ``floor_z``: its height plus the rise all its kinetic energy
-    (translation and rotation) could buy, with 50 % and 2 cm to spare for the energy MuJoCo's
-    soft contacts can return, is below it. A trial whose object fell off a table is then
-    stopped when it lands, instead of rolling on the floor until it rests or times out."""
-    vadr = m.jnt_dofadr[m.body_jntadr[body]]
-    mass, inertia = float(m.body_mass[body]), m.body_inertia[body].copy()
-    g = float(np.linalg.norm(m.opt.gravity))
-
-    def give_up(d: mujoco.MjData) -> bool:
-        v, w = d.qvel[vadr:vadr + 3], d.qvel[vadr + 3:vadr + 6]  # w in the body frame
-        energy = 0.5 * mass * float(v @ v) + 0.5 * float(inertia @ (w * w))
-        return float(d.xipos[body, 2]) + 1.5 * energy / (mass * g) + 0.02 < floor_z
-
-    return give_up
+    centre of mass up to ``floor_z`` (:class:`~fallgen.physics.settle.EnergyFloor`)."""
+    return EnergyFloor(body, int(m.jnt_dofadr[m.body_jntadr[body]]), float(m.body_mass[body]),
+                       tuple(map(float, m.body_inertia[body])),
+                       float(np.linalg.norm(m.opt.gravity)), float(floor_z))
 
 
 def run_trial(world: World, variant: RoomVariant, zone: Zone, trial: int,

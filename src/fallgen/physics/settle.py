@@ -17,6 +17,8 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from fallgen.physics.settle_kernel import below_for_good
+
 
 @dataclass(frozen=True)
 class SettleCriteria:
@@ -62,11 +64,36 @@ def mujoco_warnings(data: mujoco.MjData) -> dict[str, int]:
 POSE_EVERY_STEPS = 10
 
 
+@dataclass(frozen=True)
+class EnergyFloor:
+    """``give_up(data)`` of a fall into a zone whose floor is at ``floor_z``: whether the body
+    (the only moving one; ``vadr`` its free joint's first dof) can no longer bring its centre of
+    mass up to ``floor_z``: its height plus the rise all its kinetic energy (translation and
+    rotation, ``inertia`` its principal moments) could buy, with 50 % and 2 cm to spare for the
+    energy MuJoCo's soft contacts can return, is below it. A trial whose object fell off a
+    table is then stopped when it lands, instead of rolling on the floor until it rests or times
+    out (:func:`fallgen.physics.settle_kernel.below_for_good`, which the compiled settle loop
+    calls too)."""
+
+    body: int
+    vadr: int
+    mass: float
+    inertia: tuple[float, float, float]
+    g: float
+    floor_z: float
+
+    def __call__(self, d: mujoco.MjData) -> bool:
+        v0, v1, v2, w0, w1, w2 = d.qvel[self.vadr:self.vadr + 6].tolist()  # w: body frame
+        return bool(below_for_good(float(d.xipos[self.body, 2]), v0, v1, v2, w0, w1, w2,
+                                   self.mass, *self.inertia, self.g, self.floor_z))
+
+
 def _still(poses: deque, c: SettleCriteria) -> bool:
     """Every pose of the window within tolerance of the first."""
     p0, q0 = poses[0]
     for p, q in poses:
-        if (p[0] - p0[0]) ** 2 + (p[1] - p0[1]) ** 2 + (p[2] - p0[2]) ** 2 > c.pose_tol_m ** 2:
+        d0, d1, d2 = p[0] - p0[0], p[1] - p0[1], p[2] - p0[2]
+        if d0 * d0 + d1 * d1 + d2 * d2 > c.pose_tol_m * c.pose_tol_m:
             return False
         dot = abs(q[0] * q0[0] + q[1] * q0[1] + q[2] * q0[2] + q[3] * q0[3])
         if 2.0 * math.acos(min(1.0, dot)) > c.pose_tol_rad:
@@ -97,14 +124,49 @@ def simulate_until_settled(model: mujoco.MjModel, data: mujoco.MjData, body_id: 
     replay = max_steps is not None
     if max_steps is None:
         max_steps = int(round(criteria.timeout_s / dt))
+    # Poses are sampled every POSE_EVERY_STEPS steps whatever the chunk, so that runs in
+    # different chunks reach the same "still in place" verdict at the same step.
+    window = max(1, int(math.ceil(criteria.pose_window_s / (dt * POSE_EVERY_STEPS))))
+    if recorder is not None and (give_up is None or isinstance(give_up, EnergyFloor)):
+        # the same loop, compiled (fallgen.physics.settle_kernel)
+        steps, unstable, gave_up, settled_at, max_speed, min_z = recorder.settle(
+            data, qadr, max_steps, chunk, hold, window, POSE_EVERY_STEPS, replay, criteria,
+            give_up, _WATCHED_IDS)
+    else:
+        steps, unstable, gave_up, settled_at, max_speed, min_z, sweep = _loop(
+            model, data, qadr, vadr, max_steps, chunk, hold, window, replay, criteria, recorder,
+            give_up)
+        (x_lo, y_lo), (x_hi, y_hi) = sweep
+    if recorder is not None:
+        (x_lo, y_lo), (x_hi, y_hi) = recorder.sweep
+    return SettleResult(
+        settled=settled_at is not None and not unstable and not gave_up,
+        time_s=settled_at if settled_at is not None else data.time,
+        pos=data.qpos[qadr:qadr + 3].copy(),
+        quat=data.qpos[qadr + 3:qadr + 7].copy(),
+        max_speed_mps=max_speed,
+        min_z_m=min_z,
+        unstable=unstable,
+        warnings=mujoco_warnings(data),
+        steps=steps,
+        xy_min=(x_lo, y_lo),
+        xy_max=(x_hi, y_hi),
+        gave_up=gave_up,
+    )
+
+
+def _loop(model: mujoco.MjModel, data: mujoco.MjData, qadr: int, vadr: int, max_steps: int,
+          chunk: int, hold: int, window: int, replay: bool, criteria: SettleCriteria,
+          recorder, give_up: Callable[[mujoco.MjData], bool] | None) -> tuple:
+    """:func:`simulate_until_settled`'s loop in Python, for any ``give_up`` (and without a
+    recorder): (steps, unstable, gave_up, settled_at or None, max speed, lowest z, the sweep
+    of the states checked)."""
+    dt = model.opt.timestep
     calm, settled_at, gave_up = 0, None, False
     max_speed, min_z, unstable = 0.0, np.inf, False
     x_lo = x_hi = float(data.qpos[qadr])
     y_lo = y_hi = float(data.qpos[qadr + 1])
     steps = 0
-    # Poses are sampled every POSE_EVERY_STEPS steps whatever the chunk, so that runs in
-    # different chunks reach the same "still in place" verdict at the same step.
-    window = max(1, int(math.ceil(criteria.pose_window_s / (dt * POSE_EVERY_STEPS))))
     poses: deque = deque(maxlen=window + 1)
     # views into data, read as Python floats after every step or chunk (NumPy scalar
     # arithmetic would cost more than the check itself; the same IEEE operations)
@@ -143,19 +205,5 @@ def simulate_until_settled(model: mujoco.MjModel, data: mujoco.MjData, body_id: 
                 settled_at = (steps - window * POSE_EVERY_STEPS) * dt
             if settled_at is not None and not replay:
                 break
-    if recorder is not None:
-        (x_lo, y_lo), (x_hi, y_hi) = recorder.sweep
-    return SettleResult(
-        settled=settled_at is not None and not unstable and not gave_up,
-        time_s=settled_at if settled_at is not None else data.time,
-        pos=data.qpos[qadr:qadr + 3].copy(),
-        quat=data.qpos[qadr + 3:qadr + 7].copy(),
-        max_speed_mps=max_speed,
-        min_z_m=min_z,
-        unstable=unstable,
-        warnings=mujoco_warnings(data),
-        steps=steps,
-        xy_min=(x_lo, y_lo),
-        xy_max=(x_hi, y_hi),
-        gave_up=gave_up,
-    )
+    return (steps, unstable, gave_up, settled_at, max_speed, min_z,
+            ((x_lo, y_lo), (x_hi, y_hi)))
