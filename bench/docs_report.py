@@ -296,7 +296,14 @@ def rt60(src) -> str | None:
             for k, b in r["by_band"].items()]
     out = _table(["octave band", "min, s", "median, s", "max, s"], rows) + "\n"
     g = s.data["goals"].get("rt60_mid", {})
-    if g.get("value"):
+    if g.get("value") and g.get("traced"):
+        out += (f"At 500 Hz-1 kHz the model gives {_g(g['model'])} s over the "
+                f"{r['variants']} variants, the ray tracer {_g(g['value'])} s "
+                f"({g['traced']} variants traced as the build has them, `bench/rays_table.py`)"
+                f"; {g['outside']} variants outside 0.3-0.9 s"
+                + (f": {', '.join(g['variants_outside'])}" if g["variants_outside"] else "")
+                + ".\n\n")
+    elif g.get("value"):
         out += (f"At 500 Hz-1 kHz the model gives {_g(g['model'])} s over the "
                 f"{r['variants']} variants; times the ray tracer's ratio to it "
                 f"({_g(g['rays_over_model'])}): {_g(g['value'])} s (range {_g(g['range'])}); "

@@ -18,7 +18,7 @@ import numpy as np
 import pyarrow.parquet as pq
 
 from fallgen.audio import AUDIO_ENERGY_CEILING
-from fallgen.audio.acoustics import RT60_GOAL_S, rt60_goal_from_model
+from fallgen.audio.acoustics import RT60_GOAL_S, rt60_goal
 from fallgen.config import SPLITS
 from fallgen.dataset.writer import shard_meta
 
@@ -292,8 +292,8 @@ def _goals(rows: list[dict]) -> dict:
         g["fall_height"] = {"value": None, "bound": f"every fall >= {lim:g} m", "ok": None}
     rt = _rt60_by_variant(rows)
     lo, hi = GOALS["rt60_mid_s"]
-    if rt:  # the model's RT60 widened by the ray tracer's measured deviation from it
-        g["rt60_mid"] = rt60_goal_from_model({k: float(np.mean(v[2:4])) for k, v in rt.items()})
+    if rt:  # the rays traced for the variant, else the model widened by their ratio to it
+        g["rt60_mid"] = rt60_goal({k: list(v[2:4]) for k, v in rt.items()})
     else:
         g["rt60_mid"] = {"value": None, "bound": f"{lo:g}..{hi:g} s", "ok": None}
     mats = Counter(r["audio_material"] for r in rows)
