@@ -227,7 +227,7 @@ def rt60_goal(mid_by_variant: dict[str, list[float]], traced: dict[str, dict] | 
     lo, hi = RT60_GOAL_S
     r_lo, r_mid, r_hi = RAYS_OVER_MODEL
     traced = traced_mid() if traced is None else traced
-    value, span, models, rays = {}, {}, {}, set()
+    value, span, models, measured = {}, {}, {}, 0
     for k, mid in mid_by_variant.items():
         m = np.asarray(mid, float)
         models[k] = float(m.mean())
@@ -235,11 +235,10 @@ def rt60_goal(mid_by_variant: dict[str, list[float]], traced: dict[str, dict] | 
         if t is not None and np.allclose(t["model_s"], m, rtol=SAME_MODEL_RTOL, atol=0.0):
             value[k] = float(np.mean(t["t30_s"]))
             span[k] = (value[k], value[k])
-            rays.add(k)
+            measured += 1
         else:
             value[k] = models[k] * r_mid
             span[k] = (models[k] * r_lo, models[k] * r_hi)
-    measured = len(rays)
     maybe = sorted(k for k, (a, b) in span.items() if a < lo or b > hi)
     outside = sorted(k for k, v in value.items() if not lo <= v <= hi)
     return {"model": [min(models.values()), max(models.values())],

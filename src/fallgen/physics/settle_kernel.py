@@ -7,7 +7,8 @@ The checks are those of the Python loop, with the same IEEE operations in the sa
 (Numba contracts no multiply-adds; ``max``, ``min`` and ``min(1.0, dot)`` written out as Python
 evaluates them): a fall settles, gives up or goes unstable at the same step, with the same
 result, whichever loop runs it (``tests/physics/test_settle_kernel.py``). Between two chunks the
-Python loop cost ~40 us of interpreter work (~10 % of a rehearsal); here it costs ~1 us.
+Python loop's interpreter work was ~26 us (1.9 s over the 72 374 chunks of 824 rehearsal
+trials, ~10 % of their time); with this loop the trials took 8 % less time.
 
 State lives in arrays the caller owns, so that a call that stops because the recorder's event
 arrays are full (:data:`GROW`) resumes where it stopped once they have grown.
