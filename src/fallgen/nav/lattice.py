@@ -74,14 +74,6 @@ def position_key(a, b, c, d, headings):
 
 
 @njit(cache=True)
-def free_at(ok, res, hi0, hi1, x, y):
-    """The occupancy table ``ok`` (a border of "outside" around the grid) at (x, y)."""
-    fi = min(max(np.floor(x / res), -1.0), hi0 - 1.0)
-    fj = min(max(np.floor(y / res), -1.0), hi1 - 1.0)
-    return ok[int(fi) + 1, int(fj) + 1]
-
-
-@njit(cache=True)
 def outside_view(corners, x, y, yaw, tilt_rad, camera, tan_half, slack):
     """Whether every point of ``corners`` (N, 3) is beyond one side of the view frustum of the
     camera at (x, y, ``camera``) looking along ``yaw`` and ``tilt_rad`` (a free camera: its
@@ -208,40 +200,24 @@ def _enter_positions(tab, keys, vals):
 
 
 @njit(cache=True)
-def _reach(cost, x1, y1, parent, action, lat, g, px, py, par, act, nact, closed, tab,
-           oheap, counts, fp, ip, move_cost):
-    """Offer state (lattice coordinates ``lat``, heading) at ``cost`` from ``parent``."""
-    key = pack(lat[0], lat[1], lat[2], lat[3], lat[4], ip[I_HEADINGS])
-    j = _slot(tab, key)
-    if tab[2 * j] == -1:
-        s = counts[C_STATES]
-        counts[C_STATES] = s + 1
-        tab[2 * j], tab[2 * j + 1] = key, s
-        counts[C_USED] += 1
-        g[s] = np.iinfo(np.int32).max
-        closed[s] = False
-    else:
-        s = tab[2 * j + 1]
-    if closed[s] or g[s] <= cost:
-        return
-    g[s], px[s], py[s], par[s], act[s] = cost, x1, y1, parent, action
-    nact[s] = nact[parent] + 1
-    f = cost + move_cost * moves_to_reach(x1, y1, fp)
-    n = _push(oheap, counts[C_OPEN], f * _O_F + s)
-    counts[C_OPEN] = n
-
-
-@njit(cache=True)
 def _run(g, px, py, par, act, nact, closed, coords, tab, oheap, fheap, counts, ok,
          dirs, fracs, steps, corners, fp, ip, sight):
     """Expand states until the cheapest candidate is final (FINAL: it is at the top of the
     candidate heap), the lattice is exhausted (EXHAUSTED) or a table needs room (GROW).
     ``sight``: the occlusion bound's arrays (:attr:`fallgen.vision.sight.Occluders.kernel`),
-    or None: a position from which it proves the object hidden gives no candidate."""
+    or None: a position from which it proves the object hidden gives no candidate.
+
+    The heap, the hash table's probes, the forward move's check and the heuristic are written
+    out here rather than called (:func:`_push`, :func:`_pop`, :func:`_slot`,
+    :func:`moves_to_reach`: the same operations in the same order): a compiled call that takes
+    an array counts a reference to it in and out, an atomic operation each, and those were a
+    quarter of a long search's time."""
     move, turn, headings = ip[I_MOVE], ip[I_TURN], ip[I_HEADINGS]
     hi0, hi1, res = ip[I_HI0], ip[I_HI1], fp[P_RES]
-    reach2 = fp[P_REACH] * fp[P_REACH] + 1e-9
-    lat = np.empty(5, np.int64)
+    step, tx, ty, reach = fp[P_STEP], fp[P_TX], fp[P_TY], fp[P_REACH]
+    reach2 = reach * reach + 1e-9
+    mask = (len(tab) >> 1) - 1
+    big = np.iinfo(np.int32).max
     while True:
         n_open = counts[C_OPEN]
         if counts[C_FOUND] > 0:
@@ -253,20 +229,42 @@ def _run(g, px, py, par, act, nact, closed, coords, tab, oheap, fheap, counts, o
         if counts[C_STATES] + 3 > len(g) or 10 * (counts[C_USED] + 4) > 7 * (len(tab) >> 1) \
                 or n_open + 3 > len(oheap) or counts[C_FOUND] + 1 > len(fheap):
             return GROW
-        key, n_open = _pop(oheap, n_open)
+        # pop the open heap's smallest key (as _pop)
+        key = oheap[0]
+        n_open -= 1
+        last = oheap[n_open]
+        i = 0
+        while True:
+            child = 2 * i + 1
+            if child >= n_open:
+                break
+            if child + 1 < n_open and oheap[child + 1] < oheap[child]:
+                child += 1
+            if oheap[child] >= last:
+                break
+            oheap[i] = oheap[child]
+            i = child
+        oheap[i] = last
         counts[C_OPEN] = n_open
         s = key % _O_F
-        if closed[s] or key // _O_F != g[s] + move * moves_to_reach(px[s], py[s], fp):
+        if closed[s]:
+            continue
+        x0, y0 = px[s], py[s]
+        d = math.hypot(tx - x0, ty - y0) - reach  # moves_to_reach
+        h = 0 if d <= 0.0 else int(math.ceil(d / step - 1e-9))
+        if key // _O_F != g[s] + move * h:
             continue  # a stale entry: the state was reached more cheaply since
         closed[s] = True
-        c, x0, y0 = g[s], px[s], py[s]
+        c = g[s]
         k = coords[s, 4]
         # a goal candidate: within reach, and the object in a frustum at some tilt
-        dx, dy = fp[P_TX] - x0, fp[P_TY] - y0
+        dx, dy = tx - x0, ty - y0
         seen = dx * dx + dy * dy <= reach2
         if seen:  # a position marked unseen (hval -1) gives no candidate; -2: may see
             pk = position_key(coords[s, 0], coords[s, 1], coords[s, 2], coords[s, 3], headings)
-            j = _slot(tab, pk)
+            j = ((pk * 0x5851F42D4C957F2D) >> 17) & mask
+            while tab[2 * j] != -1 and tab[2 * j] != pk:
+                j = (j + 1) & mask
             if tab[2 * j] == pk:
                 seen = tab[2 * j + 1] == -2
             elif sight is not None:
@@ -281,32 +279,63 @@ def _run(g, px, py, par, act, nact, closed, coords, tab, oheap, fheap, counts, o
                 counts[C_FOUND] = nf
         if nact[s] + 2 > ip[I_MAX_ACTIONS]:  # no room left for another action and found
             continue
-        # forward: the simulator's check along the move
-        x1 = x0 + fp[P_STEP] * dirs[k, 0]
-        y1 = y0 + fp[P_STEP] * dirs[k, 1]
+        # forward: the simulator's check along the move, at each fraction: the occupancy
+        # table ``ok`` (a border of "outside" around the grid) at the point
+        x1 = x0 + step * dirs[k, 0]
+        y1 = y0 + step * dirs[k, 1]
         clear = True
-        for f in fracs:
-            if not free_at(ok, res, hi0, hi1, x0 + f * (x1 - x0), y0 + f * (y1 - y0)):
+        for q in range(len(fracs)):
+            f = fracs[q]
+            fi = min(max(np.floor((x0 + f * (x1 - x0)) / res), -1.0), hi0 - 1.0)
+            fj = min(max(np.floor((y0 + f * (y1 - y0)) / res), -1.0), hi1 - 1.0)
+            if not ok[int(fi) + 1, int(fj) + 1]:
                 clear = False
                 break
-        if clear:
-            for i in range(4):
-                lat[i] = coords[s, i] + steps[k, i]
-            lat[4] = k
-            n0 = counts[C_STATES]
-            _reach(c + move, x1, y1, s, ip[I_FORWARD], lat, g, px, py, par, act, nact,
-                   closed, tab, oheap, counts, fp, ip, move)
-            if counts[C_STATES] > n0:
-                coords[n0, :] = lat
-        for d, a in ((1, ip[I_LEFT]), (headings - 1, ip[I_RIGHT])):
-            for i in range(4):
-                lat[i] = coords[s, i]
-            lat[4] = (k + d) % headings
-            n0 = counts[C_STATES]
-            _reach(c + turn, x0, y0, s, a, lat, g, px, py, par, act, nact, closed, tab,
-                   oheap, counts, fp, ip, move)
-            if counts[C_STATES] > n0:
-                coords[n0, :] = lat
+        # the successors: forward (if clear), left, right
+        for m in range(3):
+            if m == 0:
+                if not clear:
+                    continue
+                na, nb = coords[s, 0] + steps[k, 0], coords[s, 1] + steps[k, 1]
+                nc, nd = coords[s, 2] + steps[k, 2], coords[s, 3] + steps[k, 3]
+                nk, nx, ny, cost, action = k, x1, y1, c + move, ip[I_FORWARD]
+            else:
+                na, nb, nc, nd = coords[s, 0], coords[s, 1], coords[s, 2], coords[s, 3]
+                nk = (k + 1) % headings if m == 1 else (k + headings - 1) % headings
+                nx, ny, cost = x0, y0, c + turn
+                action = ip[I_LEFT] if m == 1 else ip[I_RIGHT]
+            skey = pack(na, nb, nc, nd, nk, headings)
+            j = ((skey * 0x5851F42D4C957F2D) >> 17) & mask
+            while tab[2 * j] != -1 and tab[2 * j] != skey:
+                j = (j + 1) & mask
+            if tab[2 * j] == -1:
+                s2 = counts[C_STATES]
+                counts[C_STATES] = s2 + 1
+                tab[2 * j], tab[2 * j + 1] = skey, s2
+                counts[C_USED] += 1
+                g[s2] = big
+                closed[s2] = False
+                coords[s2, 0], coords[s2, 1], coords[s2, 2], coords[s2, 3] = na, nb, nc, nd
+                coords[s2, 4] = nk
+            else:
+                s2 = tab[2 * j + 1]
+            if closed[s2] or g[s2] <= cost:
+                continue
+            g[s2], px[s2], py[s2], par[s2], act[s2] = cost, nx, ny, s, action
+            nact[s2] = nact[s] + 1
+            d = math.hypot(tx - nx, ty - ny) - reach  # moves_to_reach
+            h = 0 if d <= 0.0 else int(math.ceil(d / step - 1e-9))
+            nkey = (cost + move * h) * _O_F + s2
+            # push (as _push)
+            i = counts[C_OPEN]
+            while i > 0:
+                pi = (i - 1) >> 1
+                if oheap[pi] <= nkey:
+                    break
+                oheap[i] = oheap[pi]
+                i = pi
+            oheap[i] = nkey
+            counts[C_OPEN] += 1
 
 
 def _doubled(a: np.ndarray, used: int) -> np.ndarray:
