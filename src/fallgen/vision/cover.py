@@ -115,11 +115,14 @@ def convex_hull(px, py, n, ox, oy):
 
 @njit(cache=True)
 def _grow(xs, ys, ns, used):
-    """The piece arrays with twice the room, their first ``used`` pieces kept."""
-    cap = 2 * len(ns)
-    gx, gy = np.empty((cap, MAX_VERTICES)), np.empty((cap, MAX_VERTICES))
-    gn = np.zeros(cap, np.int64)
-    gx[:used], gy[:used], gn[:used] = xs[:used], ys[:used], ns[:used]
+    """The piece arrays (two planes: the pieces and the pieces left of them) with twice the
+    room, each plane's first ``used[plane]`` pieces kept."""
+    cap = 2 * ns.shape[1]
+    gx, gy = np.empty((2, cap, MAX_VERTICES)), np.empty((2, cap, MAX_VERTICES))
+    gn = np.zeros((2, cap), np.int64)
+    for k in range(2):
+        gx[k, :used[k]], gy[k, :used[k]], gn[k, :used[k]] = \
+            xs[k, :used[k]], ys[k, :used[k]], ns[k, :used[k]]
     return gx, gy, gn
 
 
@@ -131,21 +134,27 @@ def subtract(gx, gy, gn, cx, cy, cn, count, dust, max_pieces, budget=200_000):
     pieces or ``budget`` steps (a piece looked at, a clip) would be needed, the pieces left are
     returned as they are then
     (still holding all of the difference, with some of it not yet taken away); -1 pieces only
-    for a polygon of too many vertices."""
+    for a polygon of too many vertices.
+
+    The clips (:func:`clip`), areas (:func:`area2`), extents and copies are written out as
+    loops (the same operations in the same order): a compiled call or slice that takes an
+    array counts a reference to it in and out, an atomic operation each, and those were most
+    of the time of a subtraction of a few dozen polygons."""
     if gn > MAX_VERTICES - 2:
         return np.empty((1, MAX_VERTICES)), np.empty((1, MAX_VERTICES)), np.zeros(1, np.int64), -1
     cap = min(64, max_pieces)  # room for pieces, doubled as needed up to max_pieces
-    px = np.empty((cap, MAX_VERTICES))
-    py = np.empty((cap, MAX_VERTICES))
-    pn = np.zeros(cap, np.int64)
-    qx = np.empty((cap, MAX_VERTICES))
-    qy = np.empty((cap, MAX_VERTICES))
-    qn = np.zeros(cap, np.int64)
+    # the pieces (plane ``cur``) and what is left of them (the other plane), as one array
+    # each: swapping arrays would count references to them, atomically, at every polygon
+    px = np.empty((2, cap, MAX_VERTICES))
+    py = np.empty((2, cap, MAX_VERTICES))
+    pn = np.zeros((2, cap), np.int64)
+    used = np.zeros(2, np.int64)
+    cur = 0
     sign = 1.0 if area2(gx, gy, gn) >= 0.0 else -1.0
     for i in range(gn):  # counter-clockwise
         k = i if sign > 0 else gn - 1 - i
-        px[0, i], py[0, i] = gx[k], gy[k]
-    pn[0] = gn
+        px[0, 0, i], py[0, 0, i] = gx[k], gy[k]
+    pn[0, 0] = gn
     pieces = 1
     ax, ay = np.empty(MAX_VERTICES), np.empty(MAX_VERTICES)
     bx, by = np.empty(MAX_VERTICES), np.empty(MAX_VERTICES)
@@ -153,29 +162,60 @@ def subtract(gx, gy, gn, cx, cy, cn, count, dust, max_pieces, budget=200_000):
     stop = False
     for t in range(count):
         m = cn[t]
-        orient = 1.0 if area2(cx[t], cy[t], m) >= 0.0 else -1.0
-        x0, x1 = cx[t, :m].min(), cx[t, :m].max()
-        y0, y1 = cy[t, :m].min(), cy[t, :m].max()
+        s2 = 0.0  # area2 of the covering polygon
+        for i in range(m):
+            j = (i + 1) % m
+            s2 += cx[t, i] * cy[t, j] - cx[t, j] * cy[t, i]
+        orient = 1.0 if s2 >= 0.0 else -1.0
+        x0 = x1 = cx[t, 0]  # the extents (NaN if one is, as min() and max())
+        y0 = y1 = cy[t, 0]
+        for i in range(1, m):
+            u, v = cx[t, i], cy[t, i]
+            if u < x0 or u != u:
+                x0 = u
+            if u > x1 or u != u:
+                x1 = u
+            if v < y0 or v != v:
+                y0 = v
+            if v > y1 or v != v:
+                y1 = v
         out = 0
+        nxt = 1 - cur
         for p in range(pieces):
-            n = pn[p]
+            n = pn[cur, p]
             clips += 1
             # room for every piece this one can leave, and the piece itself
-            while out + m + 1 > len(qn) and len(qn) < max_pieces:
-                qx, qy, qn = _grow(qx, qy, qn, out)
-            if stop or out + m + 1 > len(qn) or clips + 2 * m > budget:
+            while out + m + 1 > pn.shape[1] and pn.shape[1] < max_pieces:
+                used[cur], used[nxt] = pieces, out
+                px, py, pn = _grow(px, py, pn, used)
+            if stop or out + m + 1 > pn.shape[1] or clips + 2 * m > budget:
                 stop = True  # keep the rest as it is
-                qx[out, :n], qy[out, :n], qn[out] = px[p, :n], py[p, :n], n
+                for v in range(n):
+                    px[nxt, out, v], py[nxt, out, v] = px[cur, p, v], py[cur, p, v]
+                pn[nxt, out] = n
                 out += 1
                 continue
-            if px[p, :n].max() <= x0 or px[p, :n].min() >= x1 or py[p, :n].max() <= y0 \
-                    or py[p, :n].min() >= y1:
-                qx[out, :n], qy[out, :n], qn[out] = px[p, :n], py[p, :n], n
+            lx = hx_ = px[cur, p, 0]
+            ly = hy_ = py[cur, p, 0]
+            for i in range(1, n):
+                u, v = px[cur, p, i], py[cur, p, i]
+                if u < lx or u != u:
+                    lx = u
+                if u > hx_ or u != u:
+                    hx_ = u
+                if v < ly or v != v:
+                    ly = v
+                if v > hy_ or v != v:
+                    hy_ = v
+            if hx_ <= x0 or lx >= x1 or hy_ <= y0 or ly >= y1:
+                for v in range(n):
+                    px[nxt, out, v], py[nxt, out, v] = px[cur, p, v], py[cur, p, v]
+                pn[nxt, out] = n
                 out += 1
                 continue
             # what is left of the piece inside the edges so far
             for v in range(n):
-                ax[v], ay[v] = px[p, v], py[p, v]
+                ax[v], ay[v] = px[cur, p, v], py[cur, p, v]
             na = n
             first = out
             for e in range(m):
@@ -184,37 +224,77 @@ def subtract(gx, gy, gn, cx, cy, cn, count, dust, max_pieces, budget=200_000):
                 a = -(cy[t, f] - cy[t, e]) * orient
                 b = (cx[t, f] - cx[t, e]) * orient
                 c = -(a * cx[t, e] + b * cy[t, e])
-                # the part outside this edge is left over
-                nb = clip(ax, ay, na, -a, -b, -c, bx, by)
+                # the part outside this edge is left over (clip to -a x - b y - c >= 0)
+                ca, cb, cc = -a, -b, -c
+                nb = 0
+                for i in range(na):
+                    j = (i + 1) % na
+                    si = ca * ax[i] + cb * ay[i] + cc
+                    sj = ca * ax[j] + cb * ay[j] + cc
+                    if si >= 0.0:
+                        bx[nb], by[nb] = ax[i], ay[i]
+                        nb += 1
+                    if (si >= 0.0) != (sj >= 0.0):
+                        u = si / (si - sj)
+                        bx[nb] = ax[i] + u * (ax[j] - ax[i])
+                        by[nb] = ay[i] + u * (ay[j] - ay[i])
+                        nb += 1
+                    if nb >= MAX_VERTICES - 1:
+                        nb = -1
+                        break
                 clips += 2
                 if nb < 0:  # too many vertices: keep the piece whole
                     out = first
-                    qx[out, :n], qy[out, :n], qn[out] = px[p, :n], py[p, :n], n
+                    for v in range(n):
+                        px[nxt, out, v], py[nxt, out, v] = px[cur, p, v], py[cur, p, v]
+                    pn[nxt, out] = n
                     out += 1
                     na = -1
                     break
-                if nb >= 3 and abs(area2(bx, by, nb)) > 2 * dust:
-                    qx[out, :nb], qy[out, :nb], qn[out] = bx[:nb], by[:nb], nb
-                    out += 1
-                na = clip(ax, ay, na, a, b, c, bx, by)
+                if nb >= 3:
+                    s2 = 0.0  # area2 of the left-over part
+                    for i in range(nb):
+                        j = (i + 1) % nb
+                        s2 += bx[i] * by[j] - bx[j] * by[i]
+                    if abs(s2) > 2 * dust:
+                        for v in range(nb):
+                            px[nxt, out, v], py[nxt, out, v] = bx[v], by[v]
+                        pn[nxt, out] = nb
+                        out += 1
+                # what stays inside this edge (clip to a x + b y + c >= 0)
+                nc = 0
+                for i in range(na):
+                    j = (i + 1) % na
+                    si = a * ax[i] + b * ay[i] + c
+                    sj = a * ax[j] + b * ay[j] + c
+                    if si >= 0.0:
+                        bx[nc], by[nc] = ax[i], ay[i]
+                        nc += 1
+                    if (si >= 0.0) != (sj >= 0.0):
+                        u = si / (si - sj)
+                        bx[nc] = ax[i] + u * (ax[j] - ax[i])
+                        by[nc] = ay[i] + u * (ay[j] - ay[i])
+                        nc += 1
+                    if nc >= MAX_VERTICES - 1:
+                        nc = -1
+                        break
+                na = nc
                 if na < 0:
                     out = first
-                    qx[out, :n], qy[out, :n], qn[out] = px[p, :n], py[p, :n], n
+                    for v in range(n):
+                        px[nxt, out, v], py[nxt, out, v] = px[cur, p, v], py[cur, p, v]
+                    pn[nxt, out] = n
                     out += 1
                     break
                 for v in range(na):
                     ax[v], ay[v] = bx[v], by[v]
                 if na < 3:
                     break
-        px, qx = qx, px
-        py, qy = qy, py
-        pn, qn = qn, pn
-        if len(qn) < len(pn):  # the next round may need as much room as this one had
-            qx, qy, qn = _grow(qx, qy, qn, 0)
+        cur = nxt
         pieces = out
         if pieces == 0 or stop:
             break
-    return px, py, pn, pieces
+    return px[cur], py[cur], pn[cur], pieces
 
 
 @njit(cache=True)

@@ -36,8 +36,7 @@ import mujoco
 import numpy as np
 from numba import njit
 
-from fallgen.vision.cover import (MAX_VERTICES, area2, convex_hull, extents_polygon,
-                                  subtract)
+from fallgen.vision.cover import MAX_VERTICES, convex_hull, extents_polygon, subtract
 from fallgen.vision.faces import DRAWN_GROUPS, FaceSet, SceneFaces
 
 #: How far (m) the object must lie behind an occluding face's plane: far beyond the depth
@@ -181,9 +180,9 @@ def _project_faces(tris, normals, lo, hi, solids, owner, behind, used, eye, corn
                 + (eye[2] - solids[i, 2]) ** 2 <= r * r:
             continue  # a stand-in seen from inside its geom
         n0, n1, n2 = normals[i, 0], normals[i, 1], normals[i, 2]
-        v0 = tris[i, 0]
         # front: the eye in front of the plane, beyond twice the near clipping distance
-        if n0 * (eye[0] - v0[0]) + n1 * (eye[1] - v0[1]) + n2 * (eye[2] - v0[2]) < near:
+        if n0 * (eye[0] - tris[i, 0, 0]) + n1 * (eye[1] - tris[i, 0, 1]) \
+                + n2 * (eye[2] - tris[i, 0, 2]) < near:
             continue
         for a in range(3):
             rx, ry, rz = tris[i, a, 0] - eye[0], tris[i, a, 1] - eye[1], tris[i, a, 2] - eye[2]
@@ -205,11 +204,24 @@ def _project_faces(tris, normals, lo, hi, solids, owner, behind, used, eye, corn
                 m += 1
         if m < 3:
             continue
-        if xs[:m].max() < box[0] or xs[:m].min() > box[2] or ys[:m].max() < box[1] \
-                or ys[:m].min() > box[3]:
+        # the image's extents (NaN if one is, as min() and max()), written out: a slice
+        # counts a reference to its array in and out, an atomic operation each
+        lx = hx = xs[0]
+        ly = hy = ys[0]
+        for a in range(1, m):
+            u, v = xs[a], ys[a]
+            if u < lx or u != u:
+                lx = u
+            if u > hx or u != u:
+                hx = u
+            if v < ly or v != v:
+                ly = v
+            if v > hy or v != v:
+                hy = v
+        if hx < box[0] or lx > box[2] or hy < box[1] or ly > box[3]:
             continue
-        ox[k, :m] = xs[:m]
-        oy[k, :m] = ys[:m]
+        for a in range(m):
+            ox[k, a], oy[k, a] = xs[a], ys[a]
         sizes[k] = m
         k += 1
     return k
@@ -379,8 +391,12 @@ def _leftover(tris, normals, lo, hi, spheres, owner, behind, sverts, sstart, slo
                        q, box, near, ox, oy, sizes, k)
     # the largest images first: fewer pieces to carry through the rest
     areas = np.empty(k)
-    for i in range(k):
-        areas[i] = -abs(area2(ox[i], oy[i], sizes[i]))
+    for i in range(k):  # -|area2| of each, written out (a row passed on counts references)
+        a2, m = 0.0, sizes[i]
+        for j in range(m):
+            j1 = (j + 1) % m
+            a2 += ox[i, j] * oy[i, j1] - ox[i, j1] * oy[i, j]
+        areas[i] = -abs(a2)
     order = np.argsort(areas)
     ox, oy, sizes = ox[order], oy[order], sizes[order]
     return subtract(hx, hy, hn, ox, oy, sizes, k, DUST, MAX_PIECES, BUDGET)
