@@ -14,7 +14,8 @@ import shapely
 
 from fallgen.nav.agent import AgentSpec, Pose
 from fallgen.vision.camera import EgoCamera
-from fallgen.vision.cover import MAX_VERTICES, convex_hull, covered, extents_polygon
+from fallgen.vision.cover import (MAX_VERTICES, convex_hull, covered, extents_polygon,
+                                  subtract)
 from fallgen.vision.sight import Occluders, Sight, gnomonic_frame, near_distance
 
 
@@ -83,6 +84,40 @@ def test_the_extents_polygon_touches_each_extent_pushed_out_by_the_margin():
         scale = 1.0 + np.abs(pts).max()
         np.testing.assert_allclose((poly @ d.T).max(0), reach, rtol=0, atol=1e-12 * scale)
         assert shapely.Polygon(poly).buffer(-margin * 0.999).contains(shapely.multipoints(pts))
+
+
+def _pieces(g: np.ndarray, polys: list[np.ndarray], max_pieces: int) -> tuple[list, int]:
+    cx = np.zeros((len(polys), 8))
+    cy = np.zeros((len(polys), 8))
+    cn = np.array([len(p) for p in polys], np.int64)
+    for i, p in enumerate(polys):
+        cx[i, :len(p)], cy[i, :len(p)] = p[:, 0], p[:, 1]
+    xs, ys, ns, count = subtract(g[:, 0].copy(), g[:, 1].copy(), len(g), cx, cy, cn,
+                                 len(polys), 1e-14, max_pieces)
+    return [shapely.Polygon(np.column_stack([xs[i, :ns[i]], ys[i, :ns[i]]]))
+            for i in range(count)], count
+
+
+def test_the_pieces_left_are_the_difference_when_they_outgrow_their_first_room():
+    """A square minus a 12 x 12 grid of small squares leaves far more convex pieces than the
+    64 the subtraction first has room for: the pieces are disjoint and convex and their union
+    is Shapely's difference; with room for fewer (max_pieces) it stops, and what it returns
+    still holds the whole difference."""
+    g = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    c = (np.arange(12) + 0.5) / 12
+    polys = [np.array([[x - 0.02, y - 0.02], [x + 0.02, y - 0.02], [x + 0.02, y + 0.02],
+                       [x - 0.02, y + 0.02]]) for x in c for y in c]
+    want = shapely.Polygon(g).difference(shapely.union_all([shapely.Polygon(p)
+                                                            for p in polys]))
+    pieces, count = _pieces(g, polys, 4096)
+    assert count > 64
+    assert all(p.is_valid and abs(p.convex_hull.area - p.area) < 1e-15 for p in pieces)
+    assert abs(sum(p.area for p in pieces) - want.area) < 1e-12
+    assert shapely.union_all(pieces).symmetric_difference(want).area < 1e-12
+    short, count = _pieces(g, polys, 100)
+    assert 0 < count <= 128
+    assert shapely.union_all(short).buffer(1e-12).covers(want)
+    assert sum(p.area for p in short) > want.area + 1e-3  # some of it not yet taken away
 
 
 def test_a_crack_between_two_faces_is_not_covered():
