@@ -74,6 +74,14 @@ def position_key(a, b, c, d, headings):
 
 
 @njit(cache=True)
+def free_at(ok, res, hi0, hi1, x, y):
+    """The occupancy table ``ok`` (a border of "outside" around the grid) at (x, y)."""
+    fi = min(max(np.floor(x / res), -1.0), hi0 - 1.0)
+    fj = min(max(np.floor(y / res), -1.0), hi1 - 1.0)
+    return ok[int(fi) + 1, int(fj) + 1]
+
+
+@njit(cache=True)
 def outside_view(corners, x, y, yaw, tilt_rad, camera, tan_half, slack):
     """Whether every point of ``corners`` (N, 3) is beyond one side of the view frustum of the
     camera at (x, y, ``camera``) looking along ``yaw`` and ``tilt_rad`` (a free camera: its
@@ -207,16 +215,14 @@ def _run(g, px, py, par, act, nact, closed, coords, tab, oheap, fheap, counts, o
     ``sight``: the occlusion bound's arrays (:attr:`fallgen.vision.sight.Occluders.kernel`),
     or None: a position from which it proves the object hidden gives no candidate.
 
-    The heap, the hash table's probes, the forward move's check and the heuristic are written
-    out here rather than called (:func:`_push`, :func:`_pop`, :func:`_slot`,
-    :func:`moves_to_reach`: the same operations in the same order): a compiled call that takes
-    an array counts a reference to it in and out, an atomic operation each, and those were a
-    quarter of a long search's time."""
+    The successors are offered in this loop, not by a helper that takes the state arrays: a
+    compiled call counts a reference to each array it takes, in and out, an atomic operation
+    each, and a helper of 17 arrays called three times a state was a quarter of a long
+    search's time (helpers of one array, as the heap's and the table's, cost nothing
+    measurable)."""
     move, turn, headings = ip[I_MOVE], ip[I_TURN], ip[I_HEADINGS]
     hi0, hi1, res = ip[I_HI0], ip[I_HI1], fp[P_RES]
-    step, tx, ty, reach = fp[P_STEP], fp[P_TX], fp[P_TY], fp[P_REACH]
-    reach2 = reach * reach + 1e-9
-    mask = (len(tab) >> 1) - 1
+    reach2 = fp[P_REACH] * fp[P_REACH] + 1e-9
     big = np.iinfo(np.int32).max
     while True:
         n_open = counts[C_OPEN]
@@ -229,42 +235,20 @@ def _run(g, px, py, par, act, nact, closed, coords, tab, oheap, fheap, counts, o
         if counts[C_STATES] + 3 > len(g) or 10 * (counts[C_USED] + 4) > 7 * (len(tab) >> 1) \
                 or n_open + 3 > len(oheap) or counts[C_FOUND] + 1 > len(fheap):
             return GROW
-        # pop the open heap's smallest key (as _pop)
-        key = oheap[0]
-        n_open -= 1
-        last = oheap[n_open]
-        i = 0
-        while True:
-            child = 2 * i + 1
-            if child >= n_open:
-                break
-            if child + 1 < n_open and oheap[child + 1] < oheap[child]:
-                child += 1
-            if oheap[child] >= last:
-                break
-            oheap[i] = oheap[child]
-            i = child
-        oheap[i] = last
+        key, n_open = _pop(oheap, n_open)
         counts[C_OPEN] = n_open
         s = key % _O_F
-        if closed[s]:
-            continue
-        x0, y0 = px[s], py[s]
-        d = math.hypot(tx - x0, ty - y0) - reach  # moves_to_reach
-        h = 0 if d <= 0.0 else int(math.ceil(d / step - 1e-9))
-        if key // _O_F != g[s] + move * h:
+        if closed[s] or key // _O_F != g[s] + move * moves_to_reach(px[s], py[s], fp):
             continue  # a stale entry: the state was reached more cheaply since
         closed[s] = True
-        c = g[s]
+        c, x0, y0 = g[s], px[s], py[s]
         k = coords[s, 4]
         # a goal candidate: within reach, and the object in a frustum at some tilt
-        dx, dy = tx - x0, ty - y0
+        dx, dy = fp[P_TX] - x0, fp[P_TY] - y0
         seen = dx * dx + dy * dy <= reach2
         if seen:  # a position marked unseen (hval -1) gives no candidate; -2: may see
             pk = position_key(coords[s, 0], coords[s, 1], coords[s, 2], coords[s, 3], headings)
-            j = ((pk * 0x5851F42D4C957F2D) >> 17) & mask
-            while tab[2 * j] != -1 and tab[2 * j] != pk:
-                j = (j + 1) & mask
+            j = _slot(tab, pk)
             if tab[2 * j] == pk:
                 seen = tab[2 * j + 1] == -2
             elif sight is not None:
@@ -279,16 +263,12 @@ def _run(g, px, py, par, act, nact, closed, coords, tab, oheap, fheap, counts, o
                 counts[C_FOUND] = nf
         if nact[s] + 2 > ip[I_MAX_ACTIONS]:  # no room left for another action and found
             continue
-        # forward: the simulator's check along the move, at each fraction: the occupancy
-        # table ``ok`` (a border of "outside" around the grid) at the point
-        x1 = x0 + step * dirs[k, 0]
-        y1 = y0 + step * dirs[k, 1]
+        # forward: the simulator's check along the move
+        x1 = x0 + fp[P_STEP] * dirs[k, 0]
+        y1 = y0 + fp[P_STEP] * dirs[k, 1]
         clear = True
-        for q in range(len(fracs)):
-            f = fracs[q]
-            fi = min(max(np.floor((x0 + f * (x1 - x0)) / res), -1.0), hi0 - 1.0)
-            fj = min(max(np.floor((y0 + f * (y1 - y0)) / res), -1.0), hi1 - 1.0)
-            if not ok[int(fi) + 1, int(fj) + 1]:
+        for f in fracs:
+            if not free_at(ok, res, hi0, hi1, x0 + f * (x1 - x0), y0 + f * (y1 - y0)):
                 clear = False
                 break
         # the successors: forward (if clear), left, right
@@ -305,9 +285,7 @@ def _run(g, px, py, par, act, nact, closed, coords, tab, oheap, fheap, counts, o
                 nx, ny, cost = x0, y0, c + turn
                 action = ip[I_LEFT] if m == 1 else ip[I_RIGHT]
             skey = pack(na, nb, nc, nd, nk, headings)
-            j = ((skey * 0x5851F42D4C957F2D) >> 17) & mask
-            while tab[2 * j] != -1 and tab[2 * j] != skey:
-                j = (j + 1) & mask
+            j = _slot(tab, skey)
             if tab[2 * j] == -1:
                 s2 = counts[C_STATES]
                 counts[C_STATES] = s2 + 1
@@ -323,19 +301,8 @@ def _run(g, px, py, par, act, nact, closed, coords, tab, oheap, fheap, counts, o
                 continue
             g[s2], px[s2], py[s2], par[s2], act[s2] = cost, nx, ny, s, action
             nact[s2] = nact[s] + 1
-            d = math.hypot(tx - nx, ty - ny) - reach  # moves_to_reach
-            h = 0 if d <= 0.0 else int(math.ceil(d / step - 1e-9))
-            nkey = (cost + move * h) * _O_F + s2
-            # push (as _push)
-            i = counts[C_OPEN]
-            while i > 0:
-                pi = (i - 1) >> 1
-                if oheap[pi] <= nkey:
-                    break
-                oheap[i] = oheap[pi]
-                i = pi
-            oheap[i] = nkey
-            counts[C_OPEN] += 1
+            nkey = (cost + move * moves_to_reach(nx, ny, fp)) * _O_F + s2
+            counts[C_OPEN] = _push(oheap, counts[C_OPEN], nkey)
 
 
 def _doubled(a: np.ndarray, used: int) -> np.ndarray:

@@ -136,10 +136,10 @@ def subtract(gx, gy, gn, cx, cy, cn, count, dust, max_pieces, budget=200_000):
     (still holding all of the difference, with some of it not yet taken away); -1 pieces only
     for a polygon of too many vertices.
 
-    The clips (:func:`clip`), areas (:func:`area2`), extents and copies are written out as
-    loops (the same operations in the same order): a compiled call or slice that takes an
-    array counts a reference to it in and out, an atomic operation each, and those were most
-    of the time of a subtraction of a few dozen polygons."""
+    The pieces live in one two-plane array per coordinate (the pieces, and what is left of
+    them) and the extents are loops: swapping arrays or slicing a row counts references to
+    the arrays, an atomic operation each, and those were most of the time of a subtraction of
+    a few dozen polygons."""
     if gn > MAX_VERTICES - 2:
         return np.empty((1, MAX_VERTICES)), np.empty((1, MAX_VERTICES)), np.zeros(1, np.int64), -1
     cap = min(64, max_pieces)  # room for pieces, doubled as needed up to max_pieces
@@ -188,108 +188,59 @@ def subtract(gx, gy, gn, cx, cy, cn, count, dust, max_pieces, budget=200_000):
             while out + m + 1 > pn.shape[1] and pn.shape[1] < max_pieces:
                 used[cur], used[nxt] = pieces, out
                 px, py, pn = _grow(px, py, pn, used)
-            if stop or out + m + 1 > pn.shape[1] or clips + 2 * m > budget:
+            keep = stop or out + m + 1 > pn.shape[1] or clips + 2 * m > budget
+            if keep:
                 stop = True  # keep the rest as it is
+            else:  # kept as it is where it lies beside the polygon (their extents apart)
+                lx = hx_ = px[cur, p, 0]
+                ly = hy_ = py[cur, p, 0]
+                for i in range(1, n):
+                    u, v = px[cur, p, i], py[cur, p, i]
+                    if u < lx or u != u:
+                        lx = u
+                    if u > hx_ or u != u:
+                        hx_ = u
+                    if v < ly or v != v:
+                        ly = v
+                    if v > hy_ or v != v:
+                        hy_ = v
+                keep = hx_ <= x0 or lx >= x1 or hy_ <= y0 or ly >= y1
+            if not keep:
+                # what is left of the piece inside the edges so far
                 for v in range(n):
-                    px[nxt, out, v], py[nxt, out, v] = px[cur, p, v], py[cur, p, v]
-                pn[nxt, out] = n
-                out += 1
-                continue
-            lx = hx_ = px[cur, p, 0]
-            ly = hy_ = py[cur, p, 0]
-            for i in range(1, n):
-                u, v = px[cur, p, i], py[cur, p, i]
-                if u < lx or u != u:
-                    lx = u
-                if u > hx_ or u != u:
-                    hx_ = u
-                if v < ly or v != v:
-                    ly = v
-                if v > hy_ or v != v:
-                    hy_ = v
-            if hx_ <= x0 or lx >= x1 or hy_ <= y0 or ly >= y1:
-                for v in range(n):
-                    px[nxt, out, v], py[nxt, out, v] = px[cur, p, v], py[cur, p, v]
-                pn[nxt, out] = n
-                out += 1
-                continue
-            # what is left of the piece inside the edges so far
-            for v in range(n):
-                ax[v], ay[v] = px[cur, p, v], py[cur, p, v]
-            na = n
-            first = out
-            for e in range(m):
-                f = (e + 1) % m
-                # inside: left of the edge for a counter-clockwise polygon
-                a = -(cy[t, f] - cy[t, e]) * orient
-                b = (cx[t, f] - cx[t, e]) * orient
-                c = -(a * cx[t, e] + b * cy[t, e])
-                # the part outside this edge is left over (clip to -a x - b y - c >= 0)
-                ca, cb, cc = -a, -b, -c
-                nb = 0
-                for i in range(na):
-                    j = (i + 1) % na
-                    si = ca * ax[i] + cb * ay[i] + cc
-                    sj = ca * ax[j] + cb * ay[j] + cc
-                    if si >= 0.0:
-                        bx[nb], by[nb] = ax[i], ay[i]
-                        nb += 1
-                    if (si >= 0.0) != (sj >= 0.0):
-                        u = si / (si - sj)
-                        bx[nb] = ax[i] + u * (ax[j] - ax[i])
-                        by[nb] = ay[i] + u * (ay[j] - ay[i])
-                        nb += 1
-                    if nb >= MAX_VERTICES - 1:
-                        nb = -1
+                    ax[v], ay[v] = px[cur, p, v], py[cur, p, v]
+                na = n
+                first = out
+                for e in range(m):
+                    f = (e + 1) % m
+                    # inside: left of the edge for a counter-clockwise polygon
+                    a = -(cy[t, f] - cy[t, e]) * orient
+                    b = (cx[t, f] - cx[t, e]) * orient
+                    c = -(a * cx[t, e] + b * cy[t, e])
+                    # the part outside this edge is left over
+                    nb = clip(ax, ay, na, -a, -b, -c, bx, by)
+                    clips += 2
+                    if nb < 0:  # too many vertices: keep the piece whole
+                        out, keep = first, True
                         break
-                clips += 2
-                if nb < 0:  # too many vertices: keep the piece whole
-                    out = first
-                    for v in range(n):
-                        px[nxt, out, v], py[nxt, out, v] = px[cur, p, v], py[cur, p, v]
-                    pn[nxt, out] = n
-                    out += 1
-                    na = -1
-                    break
-                if nb >= 3:
-                    s2 = 0.0  # area2 of the left-over part
-                    for i in range(nb):
-                        j = (i + 1) % nb
-                        s2 += bx[i] * by[j] - bx[j] * by[i]
-                    if abs(s2) > 2 * dust:
+                    if nb >= 3 and abs(area2(bx, by, nb)) > 2 * dust:
                         for v in range(nb):
                             px[nxt, out, v], py[nxt, out, v] = bx[v], by[v]
                         pn[nxt, out] = nb
                         out += 1
-                # what stays inside this edge (clip to a x + b y + c >= 0)
-                nc = 0
-                for i in range(na):
-                    j = (i + 1) % na
-                    si = a * ax[i] + b * ay[i] + c
-                    sj = a * ax[j] + b * ay[j] + c
-                    if si >= 0.0:
-                        bx[nc], by[nc] = ax[i], ay[i]
-                        nc += 1
-                    if (si >= 0.0) != (sj >= 0.0):
-                        u = si / (si - sj)
-                        bx[nc] = ax[i] + u * (ax[j] - ax[i])
-                        by[nc] = ay[i] + u * (ay[j] - ay[i])
-                        nc += 1
-                    if nc >= MAX_VERTICES - 1:
-                        nc = -1
+                    na = clip(ax, ay, na, a, b, c, bx, by)
+                    if na < 0:
+                        out, keep = first, True
                         break
-                na = nc
-                if na < 0:
-                    out = first
-                    for v in range(n):
-                        px[nxt, out, v], py[nxt, out, v] = px[cur, p, v], py[cur, p, v]
-                    pn[nxt, out] = n
-                    out += 1
-                    break
-                for v in range(na):
-                    ax[v], ay[v] = bx[v], by[v]
-                if na < 3:
-                    break
+                    for v in range(na):
+                        ax[v], ay[v] = bx[v], by[v]
+                    if na < 3:
+                        break
+            if keep:
+                for v in range(n):
+                    px[nxt, out, v], py[nxt, out, v] = px[cur, p, v], py[cur, p, v]
+                pn[nxt, out] = n
+                out += 1
         cur = nxt
         pieces = out
         if pieces == 0 or stop:

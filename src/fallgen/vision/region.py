@@ -425,12 +425,8 @@ def hidden_from_cell(x0, y0, x1, y1, z, kernel, extreme=None):
             sizes[cnt] = m
             cnt += 1
     areas = np.empty(cnt)
-    for i in range(cnt):  # -|area2| of each, written out (a row passed on counts references)
-        a2, m = 0.0, sizes[i]
-        for j in range(m):
-            j1 = (j + 1) % m
-            a2 += ox[i, j] * oy[i, j1] - ox[i, j1] * oy[i, j]
-        areas[i] = -abs(a2)
+    for i in range(cnt):
+        areas[i] = -abs(area2(ox[i], oy[i], sizes[i]))
     order = np.argsort(areas)
     ox, oy, sizes = ox[order], oy[order], sizes[order]
     return subtract(hx, hy, hn, ox, oy, sizes, cnt, DUST, MAX_PIECES, BUDGET)[3] == 0

@@ -36,7 +36,8 @@ import mujoco
 import numpy as np
 from numba import njit
 
-from fallgen.vision.cover import MAX_VERTICES, convex_hull, extents_polygon, subtract
+from fallgen.vision.cover import (MAX_VERTICES, area2, convex_hull, extents_polygon,
+                                  subtract)
 from fallgen.vision.faces import DRAWN_GROUPS, FaceSet, SceneFaces
 
 #: How far (m) the object must lie behind an occluding face's plane: far beyond the depth
@@ -391,12 +392,8 @@ def _leftover(tris, normals, lo, hi, spheres, owner, behind, sverts, sstart, slo
                        q, box, near, ox, oy, sizes, k)
     # the largest images first: fewer pieces to carry through the rest
     areas = np.empty(k)
-    for i in range(k):  # -|area2| of each, written out (a row passed on counts references)
-        a2, m = 0.0, sizes[i]
-        for j in range(m):
-            j1 = (j + 1) % m
-            a2 += ox[i, j] * oy[i, j1] - ox[i, j1] * oy[i, j]
-        areas[i] = -abs(a2)
+    for i in range(k):
+        areas[i] = -abs(area2(ox[i], oy[i], sizes[i]))
     order = np.argsort(areas)
     ox, oy, sizes = ox[order], oy[order], sizes[order]
     return subtract(hx, hy, hn, ox, oy, sizes, k, DUST, MAX_PIECES, BUDGET)
