@@ -194,10 +194,12 @@ class FallRenderer:
     """Renders fall events of one world; keeps the modal models it has used most recently,
     up to ``model_budget_bytes`` (a worker of a full build meets ~300 models, ~500 MB; one
     dropped is loaded again from the modal cache, the same model, ~3 ms for the largest, its
-    surface moments kept: they cost more than the load)."""
+    surface moments kept: they cost more than the load). Kept models stay resident: on 300
+    episodes of two paper-size shards, 32 MB loaded 575 models against 128 MB's 341, +0.3 s
+    of CPU in all, and left 96 MB less in the process."""
 
     def __init__(self, world: World, settings: AudioSettings = AudioSettings(),
-                 model_budget_bytes: int = 128 * 2 ** 20) -> None:
+                 model_budget_bytes: int = 32 * 2 ** 20) -> None:
         self.world = world
         self.s = settings
         self.budget = model_budget_bytes

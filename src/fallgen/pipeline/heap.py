@@ -22,8 +22,11 @@ _MALLOC_TRIM = _malloc_trim()
 
 #: Resident memory (MB) above which a worker gives its freed heap back to the system before
 #: the next episode. (Numba's runtime, for the expert's compiled search, holds ~120 MB of a
-#: worker: at 768 MB a worker trimmed before nearly every episode, 4 s of system time a shard.)
-TRIM_ABOVE_MB = 896
+#: worker: at 768 MB a worker trimmed before nearly every episode, 4 s of system time a shard,
+#: while the sound renderer kept 128 MB of modal models. With 32 MB of them, 800 MB leaves
+#: the headroom 896 MB did: on 8 paper-size shards, 21 s of system time against 28 s, the
+#: workers' peaks 874-877 MB against 960-1004 MB, the same bytes.)
+TRIM_ABOVE_MB = 800
 
 
 _PAGE = os.sysconf("SC_PAGE_SIZE") if hasattr(os, "sysconf") else 4096
