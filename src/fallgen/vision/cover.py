@@ -50,6 +50,28 @@ def clip(xs, ys, n, a, b, c, ox, oy):
 
 
 @njit(cache=True)
+def extents(xs, ys, at, n):
+    """(lowest x, lowest y, highest x, highest y) of the points ``xs[at + (i,)]``,
+    ``ys[at + (i,)]``, i < ``n`` (``at``: the leading indices of a row of a larger array, ``()``
+    for a 1-D one); NaN if one is, as ``min()`` and ``max()``. A loop over the row, not a
+    slice of it: a slice counts a reference to its array in and out, an atomic operation
+    each, and in the subtraction's and the projections' loops those were most of the time."""
+    lx = hx = xs[at + (0,)]
+    ly = hy = ys[at + (0,)]
+    for i in range(1, n):
+        u, v = xs[at + (i,)], ys[at + (i,)]
+        if u < lx or u != u:
+            lx = u
+        if u > hx or u != u:
+            hx = u
+        if v < ly or v != v:
+            ly = v
+        if v > hy or v != v:
+            hy = v
+    return lx, ly, hx, hy
+
+
+@njit(cache=True)
 def extents_polygon(xs, ys, n, sides, margin, hx, hy):
     """The polygon of the ``n`` points' extents along ``sides`` directions, each both ways,
     every side pushed out by ``margin`` (it holds their hull), into ``hx``, ``hy`` (at least
@@ -137,9 +159,9 @@ def subtract(gx, gy, gn, cx, cy, cn, count, dust, max_pieces, budget=200_000):
     for a polygon of too many vertices.
 
     The pieces live in one two-plane array per coordinate (the pieces, and what is left of
-    them) and the extents are loops: swapping arrays or slicing a row counts references to
-    the arrays, an atomic operation each, and those were most of the time of a subtraction of
-    a few dozen polygons."""
+    them) and the extents are loops (:func:`extents`): swapping arrays or slicing a row
+    counts references to the arrays, an atomic operation each, and those were most of the
+    time of a subtraction of a few dozen polygons."""
     if gn > MAX_VERTICES - 2:
         return np.empty((1, MAX_VERTICES)), np.empty((1, MAX_VERTICES)), np.zeros(1, np.int64), -1
     cap = min(64, max_pieces)  # room for pieces, doubled as needed up to max_pieces
@@ -167,18 +189,7 @@ def subtract(gx, gy, gn, cx, cy, cn, count, dust, max_pieces, budget=200_000):
             j = (i + 1) % m
             s2 += cx[t, i] * cy[t, j] - cx[t, j] * cy[t, i]
         orient = 1.0 if s2 >= 0.0 else -1.0
-        x0 = x1 = cx[t, 0]  # the extents (NaN if one is, as min() and max())
-        y0 = y1 = cy[t, 0]
-        for i in range(1, m):
-            u, v = cx[t, i], cy[t, i]
-            if u < x0 or u != u:
-                x0 = u
-            if u > x1 or u != u:
-                x1 = u
-            if v < y0 or v != v:
-                y0 = v
-            if v > y1 or v != v:
-                y1 = v
+        x0, y0, x1, y1 = extents(cx, cy, (t,), m)
         out = 0
         nxt = 1 - cur
         for p in range(pieces):
@@ -192,18 +203,7 @@ def subtract(gx, gy, gn, cx, cy, cn, count, dust, max_pieces, budget=200_000):
             if keep:
                 stop = True  # keep the rest as it is
             else:  # kept as it is where it lies beside the polygon (their extents apart)
-                lx = hx_ = px[cur, p, 0]
-                ly = hy_ = py[cur, p, 0]
-                for i in range(1, n):
-                    u, v = px[cur, p, i], py[cur, p, i]
-                    if u < lx or u != u:
-                        lx = u
-                    if u > hx_ or u != u:
-                        hx_ = u
-                    if v < ly or v != v:
-                        ly = v
-                    if v > hy_ or v != v:
-                        hy_ = v
+                lx, ly, hx_, hy_ = extents(px, py, (cur, p), n)
                 keep = hx_ <= x0 or lx >= x1 or hy_ <= y0 or ly >= y1
             if not keep:
                 # what is left of the piece inside the edges so far

@@ -36,7 +36,7 @@ import mujoco
 import numpy as np
 from numba import njit
 
-from fallgen.vision.cover import (MAX_VERTICES, area2, convex_hull, extents_polygon,
+from fallgen.vision.cover import (MAX_VERTICES, area2, convex_hull, extents, extents_polygon,
                                   subtract)
 from fallgen.vision.faces import DRAWN_GROUPS, FaceSet, SceneFaces
 
@@ -205,20 +205,7 @@ def _project_faces(tris, normals, lo, hi, solids, owner, behind, used, eye, corn
                 m += 1
         if m < 3:
             continue
-        # the image's extents (NaN if one is, as min() and max()), written out: a slice
-        # counts a reference to its array in and out, an atomic operation each
-        lx = hx = xs[0]
-        ly = hy = ys[0]
-        for a in range(1, m):
-            u, v = xs[a], ys[a]
-            if u < lx or u != u:
-                lx = u
-            if u > hx or u != u:
-                hx = u
-            if v < ly or v != v:
-                ly = v
-            if v > hy or v != v:
-                hy = v
+        lx, ly, hx, hy = extents(xs, ys, (), m)
         if hx < box[0] or lx > box[2] or hy < box[1] or ly > box[3]:
             continue
         for a in range(m):
