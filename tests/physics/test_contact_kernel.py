@@ -212,3 +212,30 @@ def test_raw_layout_and_step_agree_with_the_bindings():
     # and the second contact's geoms read raw are the bindings' (floor 0, box 1)
     raw = (ctypes.c_int * 2).from_address(base + lay.con_size + lay.con_geom)
     assert list(raw) == list(con.geom[1]) == [0, 1]
+
+
+def test_timers_off_stops_the_clock_and_changes_no_step():
+    """With MuJoCo's profiling clock off, a step reads no clock (its timers stay at 0 s while
+    they count the steps) and the simulation is the same to the bit as with the system clock;
+    a second call is harmless."""
+    xml = ('<mujoco><worldbody><geom type="plane" size="2 2 .1"/><body pos="0 0 .5">'
+           '<freejoint/><geom type="box" size=".1 .05 .02"/></body></worldbody></mujoco>')
+    m = mujoco.MjModel.from_xml_string(xml)
+    before = mujoco.get_mjcb_time()
+    runs = []
+    try:
+        for clock_off in (False, True, True):
+            mujoco.set_mjcb_time(None)
+            if clock_off:
+                mjraw.timers_off()
+                mjraw.timers_off()
+            d = mujoco.MjData(m)
+            d.qvel[3:6] = (2.0, -1.0, 0.5)
+            mujoco.mj_step(m, d, nstep=300)
+            step = d.timer[int(mujoco.mjtTimer.mjTIMER_STEP)]
+            runs.append((d.qpos.copy(), d.qvel.copy(), step.duration, step.number))
+    finally:
+        mujoco.set_mjcb_time(before)
+    (q0, v0, t0, n0), (q1, v1, t1, n1), _ = runs
+    assert t0 > 0 and t1 == 0.0 and n0 == n1 == 300
+    assert np.array_equal(q0, q1) and np.array_equal(v0, v1)

@@ -99,6 +99,7 @@ class ContactRecorder:
         self._pyramidal = int(model.opt.cone) == int(mujoco.mjtCone.mjCONE_PYRAMIDAL)
         self._layout = mjraw.layout().as_array()
         self._step_fn = mjraw.mj_step_address()
+        mjraw.timers_off()
         jnt = model.body_jntadr[body_id]
         self._qadr = int(model.jnt_qposadr[jnt])
         self._vadr = int(model.jnt_dofadr[jnt])

@@ -20,6 +20,7 @@ import numpy as np
 from fallgen.config import RehearseConfig
 from fallgen.physics.contacts import ContactEvent, ContactRecorder
 from fallgen.physics.events import GRAVITY, FallEvent, ObjectSpec, Placement, fall_height_m
+from fallgen.physics.mjraw import timers_off
 from fallgen.physics.settle import (EnergyFloor, SettleCriteria, SettleResult,
                                    mujoco_warnings, simulate_until_settled)
 from fallgen.world.geometry import BoxSet
@@ -160,6 +161,7 @@ DISTRACTOR_SETTLE_S = 2.0
 
 def _settle_all(m: mujoco.MjModel, d: mujoco.MjData, max_s: float) -> None:
     """Step in C chunks until every free body is calm (1 cm/s, 0.1 rad/s) or ``max_s``."""
+    timers_off()
     steps = int(round(max_s / m.opt.timestep))
     done = 0
     while done < steps:

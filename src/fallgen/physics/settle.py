@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from fallgen.physics.mjraw import timers_off
 from fallgen.physics.settle_kernel import below_for_good
 
 
@@ -117,6 +118,7 @@ def simulate_until_settled(model: mujoco.MjModel, data: mujoco.MjData, body_id: 
     but does not stop the loop). ``give_up(data)``, asked at every pose sample of a run that is
     not a replay, stops a trial that can no longer be kept (``gave_up``; not settled).
     """
+    timers_off()
     jnt = model.body_jntadr[body_id]
     qadr, vadr = model.jnt_qposadr[jnt], model.jnt_dofadr[jnt]
     dt = model.opt.timestep
