@@ -278,7 +278,7 @@ def test_a_box_called_beside_the_image_box_projects_wholly_beyond_it():
         hi = lo + rng.uniform(0.01, 1.0, 3)
         x0, y0 = rng.uniform(-0.5, 0.3, 2)
         box = np.array([x0, y0, x0 + rng.uniform(0.01, 0.3), y0 + rng.uniform(0.01, 0.3)])
-        if not _box_beside(lo, hi, eye, w, p, q, box):
+        if not _box_beside(lo[None], hi[None], 0, eye, w, p, q, box):
             continue
         beside += 1
         pts = lo + rng.uniform(0, 1, (300, 3)) * (hi - lo)

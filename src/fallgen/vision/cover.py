@@ -80,6 +80,8 @@ def extents_polygon(xs, ys, n, sides, margin, hx, hy):
     The extents are taken point by point, all directions at once: independent maxima, where
     one direction at a time is a chain of dependent ones (1.7x faster for 560 points). Each
     direction still takes the largest of the same products, so the polygon is the same."""
+    if 4 + 2 * sides > MAX_VERTICES - 1:
+        raise ValueError("too many sides for MAX_VERTICES")
     tx, ty = np.empty(MAX_VERTICES), np.empty(MAX_VERTICES)
     m = 2 * sides
     cs, sn, reach = np.empty(m), np.empty(m), np.full(m, -np.inf)
@@ -91,13 +93,30 @@ def extents_polygon(xs, ys, n, sides, margin, hx, hy):
         for k in range(m):
             reach[k] = max(reach[k], cs[k] * x + sn[k] * y)
     big = 1e3
-    hx[:4] = np.array([-big, big, big, -big])
-    hy[:4] = np.array([-big, -big, big, big])
+    hx[0], hx[1], hx[2], hx[3] = -big, big, big, -big
+    hy[0], hy[1], hy[2], hy[3] = -big, -big, big, big
     hn = 4
     for k in range(m):
-        c, s = cs[k], sn[k]
-        hn = clip(hx, hy, hn, -c, -s, reach[k] + margin, tx, ty)  # keep c x + s y <= reach
-        hx[:hn], hy[:hn] = tx[:hn], ty[:hn]
+        # keep c x + s y <= reach: :func:`clip` written out, the same operations in the same
+        # order (a call taking arrays, or a slice, counts references to them, atomically)
+        a, b, c = -cs[k], -sn[k], reach[k] + margin
+        cnt = 0
+        for i in range(hn):
+            j = (i + 1) % hn
+            si = a * hx[i] + b * hy[i] + c
+            sj = a * hx[j] + b * hy[j] + c
+            if si >= 0.0:
+                tx[cnt], ty[cnt] = hx[i], hy[i]
+                cnt += 1
+            if (si >= 0.0) != (sj >= 0.0):
+                t = si / (si - sj)
+                tx[cnt] = hx[i] + t * (hx[j] - hx[i])
+                ty[cnt] = hy[i] + t * (hy[j] - hy[i])
+                cnt += 1
+        # (a clip adds at most one vertex: 4 + 2 sides of them, within MAX_VERTICES)
+        hn = cnt
+        for i in range(hn):
+            hx[i], hy[i] = tx[i], ty[i]
     return hn
 
 
@@ -136,19 +155,6 @@ def convex_hull(px, py, n, ox, oy):
 
 
 @njit(cache=True)
-def _grow(xs, ys, ns, used):
-    """The piece arrays (two planes: the pieces and the pieces left of them) with twice the
-    room, each plane's first ``used[plane]`` pieces kept."""
-    cap = 2 * ns.shape[1]
-    gx, gy = np.empty((2, cap, MAX_VERTICES)), np.empty((2, cap, MAX_VERTICES))
-    gn = np.zeros((2, cap), np.int64)
-    for k in range(2):
-        gx[k, :used[k]], gy[k, :used[k]], gn[k, :used[k]] = \
-            xs[k, :used[k]], ys[k, :used[k]], ns[k, :used[k]]
-    return gx, gy, gn
-
-
-@njit(cache=True)
 def subtract(gx, gy, gn, cx, cy, cn, count, dust, max_pieces, budget=200_000):
     """The convex polygon (``gx``, ``gy``, its first ``gn`` vertices) minus the union of the
     ``count`` convex polygons ``cx[i, :cn[i]]``, ``cy[i, :cn[i]]`` (either orientation), as
@@ -158,19 +164,32 @@ def subtract(gx, gy, gn, cx, cy, cn, count, dust, max_pieces, budget=200_000):
     (still holding all of the difference, with some of it not yet taken away); -1 pieces only
     for a polygon of too many vertices.
 
-    The pieces live in one two-plane array per coordinate (the pieces, and what is left of
-    them) and the extents are loops (:func:`extents`): swapping arrays or slicing a row
-    counts references to the arrays, an atomic operation each, and those were most of the
-    time of a subtraction of a few dozen polygons."""
+    Room for the pieces is made for 64 and, where a subtraction needs more, it is made again
+    with twice the room (up to ``max_pieces``): the room changes nothing but whether the
+    pieces fit, so the pieces are those of one pass with all the room it needs."""
     if gn > MAX_VERTICES - 2:
         return np.empty((1, MAX_VERTICES)), np.empty((1, MAX_VERTICES)), np.zeros(1, np.int64), -1
-    cap = min(64, max_pieces)  # room for pieces, doubled as needed up to max_pieces
+    cap = min(64, max_pieces)
+    while True:
+        px, py, pn, pieces = _subtract_in(gx, gy, gn, cx, cy, cn, count, dust, max_pieces,
+                                          budget, cap)
+        if pieces >= 0 or cap >= max_pieces:
+            return px, py, pn, pieces
+        cap *= 2
+
+
+@njit(cache=True)
+def _subtract_in(gx, gy, gn, cx, cy, cn, count, dust, max_pieces, budget, cap):
+    """:func:`subtract` with room for ``cap`` pieces (-2 pieces: more room needed). The
+    pieces live in one two-plane array per coordinate (the pieces, and what is left of them),
+    made once: an array rebound in a loop (swapped, grown), a row sliced or a helper taking
+    arrays counts references to them, an atomic operation each, and those were most of the
+    time of a subtraction of a few dozen polygons."""
     # the pieces (plane ``cur``) and what is left of them (the other plane), as one array
     # each: swapping arrays would count references to them, atomically, at every polygon
     px = np.empty((2, cap, MAX_VERTICES))
     py = np.empty((2, cap, MAX_VERTICES))
     pn = np.zeros((2, cap), np.int64)
-    used = np.zeros(2, np.int64)
     cur = 0
     sign = 1.0 if area2(gx, gy, gn) >= 0.0 else -1.0
     for i in range(gn):  # counter-clockwise
@@ -196,14 +215,24 @@ def subtract(gx, gy, gn, cx, cy, cn, count, dust, max_pieces, budget=200_000):
             n = pn[cur, p]
             clips += 1
             # room for every piece this one can leave, and the piece itself
-            while out + m + 1 > pn.shape[1] and pn.shape[1] < max_pieces:
-                used[cur], used[nxt] = pieces, out
-                px, py, pn = _grow(px, py, pn, used)
-            keep = stop or out + m + 1 > pn.shape[1] or clips + 2 * m > budget
+            if out + m + 1 > cap and cap < max_pieces:
+                return px[cur], py[cur], pn[cur], -2
+            keep = stop or out + m + 1 > cap or clips + 2 * m > budget
             if keep:
                 stop = True  # keep the rest as it is
             else:  # kept as it is where it lies beside the polygon (their extents apart)
-                lx, ly, hx_, hy_ = extents(px, py, (cur, p), n)
+                lx = hx_ = px[cur, p, 0]
+                ly = hy_ = py[cur, p, 0]
+                for v in range(1, n):
+                    u, w = px[cur, p, v], py[cur, p, v]
+                    if u < lx or u != u:
+                        lx = u
+                    if u > hx_ or u != u:
+                        hx_ = u
+                    if w < ly or w != w:
+                        ly = w
+                    if w > hy_ or w != w:
+                        hy_ = w
                 keep = hx_ <= x0 or lx >= x1 or hy_ <= y0 or ly >= y1
             if not keep:
                 # what is left of the piece inside the edges so far
@@ -217,23 +246,51 @@ def subtract(gx, gy, gn, cx, cy, cn, count, dust, max_pieces, budget=200_000):
                     a = -(cy[t, f] - cy[t, e]) * orient
                     b = (cx[t, f] - cx[t, e]) * orient
                     c = -(a * cx[t, e] + b * cy[t, e])
-                    # the part outside this edge is left over
-                    nb = clip(ax, ay, na, -a, -b, -c, bx, by)
-                    clips += 2
-                    if nb < 0:  # too many vertices: keep the piece whole
+                    # the part outside this edge (side 0) is left over, the part inside
+                    # (side 1) goes on to the next edge: clip() and area2() written out
+                    # here, the same operations in the same order (a call taking arrays
+                    # counts references to each, atomically: most of a subtraction's time)
+                    full = False
+                    for side in range(2):
+                        sa, sb, sc = (-a, -b, -c) if side == 0 else (a, b, c)
+                        k = 0
+                        for i in range(na):
+                            j = (i + 1) % na
+                            si = sa * ax[i] + sb * ay[i] + sc
+                            sj = sa * ax[j] + sb * ay[j] + sc
+                            if si >= 0.0:
+                                bx[k], by[k] = ax[i], ay[i]
+                                k += 1
+                            if (si >= 0.0) != (sj >= 0.0):
+                                u = si / (si - sj)
+                                bx[k] = ax[i] + u * (ax[j] - ax[i])
+                                by[k] = ay[i] + u * (ay[j] - ay[i])
+                                k += 1
+                            if k >= MAX_VERTICES - 1:
+                                full = True
+                                break
+                        if side == 0:
+                            clips += 2
+                        if full:  # too many vertices: keep the piece whole
+                            break
+                        if side == 0:
+                            if k >= 3:
+                                sp = 0.0
+                                for i in range(k):
+                                    j = (i + 1) % k
+                                    sp += bx[i] * by[j] - bx[j] * by[i]
+                                if abs(sp) > 2 * dust:
+                                    for v in range(k):
+                                        px[nxt, out, v], py[nxt, out, v] = bx[v], by[v]
+                                    pn[nxt, out] = k
+                                    out += 1
+                        else:
+                            na = k
+                            for v in range(na):
+                                ax[v], ay[v] = bx[v], by[v]
+                    if full:
                         out, keep = first, True
                         break
-                    if nb >= 3 and abs(area2(bx, by, nb)) > 2 * dust:
-                        for v in range(nb):
-                            px[nxt, out, v], py[nxt, out, v] = bx[v], by[v]
-                        pn[nxt, out] = nb
-                        out += 1
-                    na = clip(ax, ay, na, a, b, c, bx, by)
-                    if na < 0:
-                        out, keep = first, True
-                        break
-                    for v in range(na):
-                        ax[v], ay[v] = bx[v], by[v]
                     if na < 3:
                         break
             if keep:

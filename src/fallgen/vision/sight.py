@@ -72,12 +72,13 @@ SIDES = 16
 DEGENERATE_EDGE_PX = 1e-6
 
 
-@njit(cache=True)
-def _box_beside(lo, hi, eye, w, p, q, box):
-    """Whether every point of the box ``lo``..``hi`` in front of ``eye`` has its gnomonic
-    image (about ``w``, basis ``p``, ``q``) beyond one side of ``box`` (x0, y0, x1, y1), by
-    far more than rounding: x < x0 is (P - eye) . (p - x0 w) < 0 for a point P in front, a
-    linear function, largest at a corner."""
+@njit(cache=True, inline="always")
+def _box_beside(lo, hi, s, eye, w, p, q, box):
+    """Whether every point of the box ``lo[s]``..``hi[s]`` in front of ``eye`` has its
+    gnomonic image (about ``w``, basis ``p``, ``q``) beyond one side of ``box`` (x0, y0, x1,
+    y1), by far more than rounding: x < x0 is (P - eye) . (p - x0 w) < 0 for a point P in
+    front, a linear function, largest at a corner. (Inlined, and given the boxes' arrays and
+    a row, not the row: a call or a view counts references to its arrays, atomically.)"""
     for side in range(4):
         a = box[side]
         sign = 1.0 if side < 2 else -1.0
@@ -86,9 +87,9 @@ def _box_beside(lo, hi, eye, w, p, q, box):
         nz = sign * ((p[2] if side % 2 == 0 else q[2]) - a * w[2])
         top = -np.inf
         for c in range(8):
-            x = (hi[0] if c & 1 else lo[0]) - eye[0]
-            y = (hi[1] if c & 2 else lo[1]) - eye[1]
-            z = (hi[2] if c & 4 else lo[2]) - eye[2]
+            x = (hi[s, 0] if c & 1 else lo[s, 0]) - eye[0]
+            y = (hi[s, 1] if c & 2 else lo[s, 1]) - eye[1]
+            z = (hi[s, 2] if c & 4 else lo[s, 2]) - eye[2]
             top = max(top, x * nx + y * ny + z * nz)
         if top < -1e-9:
             return True
@@ -123,13 +124,13 @@ def _project_solids(sverts, sstart, slo, shi, ssph, planes, nplanes, eye, w, p, 
                 break
         if not ok:
             continue
-        if _box_beside(slo[s], shi[s], eye, w, p, q, box):
+        if _box_beside(slo, shi, s, eye, w, p, q, box):
             continue  # its image misses the object's: the test below would drop it too
         n = sstart[s + 1] - sstart[s]
         ix, iy = np.empty(n), np.empty(n)
         for j in range(n):
-            v = sverts[sstart[s] + j]
-            rx, ry, rz = v[0] - eye[0], v[1] - eye[1], v[2] - eye[2]
+            v = sstart[s] + j
+            rx, ry, rz = sverts[v, 0] - eye[0], sverts[v, 1] - eye[1], sverts[v, 2] - eye[2]
             z = rx * w[0] + ry * w[1] + rz * w[2]
             if z <= 1e-3:
                 ok = False
