@@ -221,18 +221,7 @@ def _subtract_in(gx, gy, gn, cx, cy, cn, count, dust, max_pieces, budget, cap):
             if keep:
                 stop = True  # keep the rest as it is
             else:  # kept as it is where it lies beside the polygon (their extents apart)
-                lx = hx_ = px[cur, p, 0]
-                ly = hy_ = py[cur, p, 0]
-                for v in range(1, n):
-                    u, w = px[cur, p, v], py[cur, p, v]
-                    if u < lx or u != u:
-                        lx = u
-                    if u > hx_ or u != u:
-                        hx_ = u
-                    if w < ly or w != w:
-                        ly = w
-                    if w > hy_ or w != w:
-                        hy_ = w
+                lx, ly, hx_, hy_ = extents(px, py, (cur, p), n)
                 keep = hx_ <= x0 or lx >= x1 or hy_ <= y0 or ly >= y1
             if not keep:
                 # what is left of the piece inside the edges so far
