@@ -235,51 +235,23 @@ def _subtract_in(gx, gy, gn, cx, cy, cn, count, dust, max_pieces, budget, cap):
                     a = -(cy[t, f] - cy[t, e]) * orient
                     b = (cx[t, f] - cx[t, e]) * orient
                     c = -(a * cx[t, e] + b * cy[t, e])
-                    # the part outside this edge (side 0) is left over, the part inside
-                    # (side 1) goes on to the next edge: clip() and area2() written out
-                    # here, the same operations in the same order (a call taking arrays
-                    # counts references to each, atomically: most of a subtraction's time)
-                    full = False
-                    for side in range(2):
-                        sa, sb, sc = (-a, -b, -c) if side == 0 else (a, b, c)
-                        k = 0
-                        for i in range(na):
-                            j = (i + 1) % na
-                            si = sa * ax[i] + sb * ay[i] + sc
-                            sj = sa * ax[j] + sb * ay[j] + sc
-                            if si >= 0.0:
-                                bx[k], by[k] = ax[i], ay[i]
-                                k += 1
-                            if (si >= 0.0) != (sj >= 0.0):
-                                u = si / (si - sj)
-                                bx[k] = ax[i] + u * (ax[j] - ax[i])
-                                by[k] = ay[i] + u * (ay[j] - ay[i])
-                                k += 1
-                            if k >= MAX_VERTICES - 1:
-                                full = True
-                                break
-                        if side == 0:
-                            clips += 2
-                        if full:  # too many vertices: keep the piece whole
-                            break
-                        if side == 0:
-                            if k >= 3:
-                                sp = 0.0
-                                for i in range(k):
-                                    j = (i + 1) % k
-                                    sp += bx[i] * by[j] - bx[j] * by[i]
-                                if abs(sp) > 2 * dust:
-                                    for v in range(k):
-                                        px[nxt, out, v], py[nxt, out, v] = bx[v], by[v]
-                                    pn[nxt, out] = k
-                                    out += 1
-                        else:
-                            na = k
-                            for v in range(na):
-                                ax[v], ay[v] = bx[v], by[v]
-                    if full:
+                    # the part outside this edge is left over
+                    nb = clip(ax, ay, na, -a, -b, -c, bx, by)
+                    clips += 2
+                    if nb < 0:  # too many vertices: keep the piece whole
                         out, keep = first, True
                         break
+                    if nb >= 3 and abs(area2(bx, by, nb)) > 2 * dust:
+                        for v in range(nb):
+                            px[nxt, out, v], py[nxt, out, v] = bx[v], by[v]
+                        pn[nxt, out] = nb
+                        out += 1
+                    na = clip(ax, ay, na, a, b, c, bx, by)
+                    if na < 0:
+                        out, keep = first, True
+                        break
+                    for v in range(na):
+                        ax[v], ay[v] = bx[v], by[v]
                     if na < 3:
                         break
             if keep:
