@@ -97,8 +97,11 @@ def _slab(vs, w, level, sign):
     n = vs.shape[0]
     side = np.empty(n)
     kept = 0
-    for j in range(n):
-        side[j] = sign * ((vs[j] * w).sum() - level)
+    for j in range(n):  # (vs[j] * w).sum(), as Numba sums it, without a temporary array
+        dot = 0.0
+        for a in range(3):
+            dot += vs[j, a] * w[a]
+        side[j] = sign * (dot - level)
         kept += side[j] >= 0.0
     total = kept + kept * (n - kept)
     if kept == n:
@@ -109,11 +112,14 @@ def _slab(vs, w, level, sign):
     k = 0
     for j in range(n):
         if side[j] >= 0.0:
-            out[k] = vs[j]
+            for a in range(3):
+                out[k, a] = vs[j, a]
             k += 1
             for i in range(n):
                 if side[i] < 0.0:
-                    out[k] = vs[j] + (side[j] / (side[j] - side[i])) * (vs[i] - vs[j])
+                    t = side[j] / (side[j] - side[i])
+                    for a in range(3):
+                        out[k, a] = vs[j, a] + t * (vs[i, a] - vs[j, a])
                     k += 1
     return out
 
