@@ -97,24 +97,9 @@ def extents_polygon(xs, ys, n, sides, margin, hx, hy):
     hy[0], hy[1], hy[2], hy[3] = -big, -big, big, big
     hn = 4
     for k in range(m):
-        # keep c x + s y <= reach: :func:`clip` written out, the same operations in the same
-        # order (a call taking arrays, or a slice, counts references to them, atomically)
-        a, b, c = -cs[k], -sn[k], reach[k] + margin
-        cnt = 0
-        for i in range(hn):
-            j = (i + 1) % hn
-            si = a * hx[i] + b * hy[i] + c
-            sj = a * hx[j] + b * hy[j] + c
-            if si >= 0.0:
-                tx[cnt], ty[cnt] = hx[i], hy[i]
-                cnt += 1
-            if (si >= 0.0) != (sj >= 0.0):
-                t = si / (si - sj)
-                tx[cnt] = hx[i] + t * (hx[j] - hx[i])
-                ty[cnt] = hy[i] + t * (hy[j] - hy[i])
-                cnt += 1
-        # (a clip adds at most one vertex: 4 + 2 sides of them, within MAX_VERTICES)
-        hn = cnt
+        # keep c x + s y <= reach (copied back by a loop: slices of the arrays, counted as
+        # references atomically, took ~5 % of an occlusion proof)
+        hn = clip(hx, hy, hn, -cs[k], -sn[k], reach[k] + margin, tx, ty)
         for i in range(hn):
             hx[i], hy[i] = tx[i], ty[i]
     return hn
