@@ -1,5 +1,5 @@
 """Tables of a complex factor's powers: damped sinusoids sampled on a uniform grid without
-calling ``exp`` per sample (the modal renderer's blocks, the coupled contact's waves)."""
+calling ``exp`` per sample (the modal renderer's blocks)."""
 
 from __future__ import annotations
 
