@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import subprocess
 import sys
 import textwrap
@@ -219,7 +220,7 @@ def test_a_start_overlap_is_rejected_without_simulating(world):
 def test_covered_zones_are_reached_by_real_falls(world, tmp_path):
     """Every kept event falls at least min_fall_m before its first impact, also into a shelf
     between two boards (0.46 m: small objects start inside, higher), under a sofa (9 cm:
-    thrown beside it, sliding under) and under a dining table (room enough below its top,
+    landing before it, sliding under) and under a dining table (room enough below its top,
     but an object gets there off the table, not from beneath it: every start lies beside the
     table, above its top); a stricter minimum leaves no shorter fall."""
     from fallgen.physics.drop import COVER_CLEARANCE_M, fall_height_m
@@ -272,3 +273,52 @@ def test_a_trial_given_up_before_its_fall_settles_no_distractors(world, monkeypa
             assert len(compiled) == 2, (trial, out.reason)
             return
     raise AssertionError("no trial of the zone fell")
+
+
+def test_a_fall_under_furniture_lands_before_the_opening_moving_toward_it(world):
+    """The throw under a sofa, a coffee table and a dining table: its ballistic flight (no
+    drag) comes down to the floor, at the object's radius, 2-30 cm beyond the radius from the
+    cover's edge, moving straight at the region's centre at 1.5-3 m/s, from a start above the
+    cover's underside by the clearance, outside its footprint."""
+    from fallgen.physics.drop import COVER_CLEARANCE_M, GRAVITY, _landing
+
+    rng = np.random.default_rng(7)
+    for vid, zid in [("study_lounge-l1-m1", "z04"), ("study_lounge-l1-m1", "z05"),
+                     ("kitchen_dining-l1-m1", "z16")]:
+        zone = world.variant(vid).zone(zid)
+        d = zone.drop
+        c, s = math.cos(d.yaw), math.sin(d.yaw)
+        found = 0
+        for _ in range(20):
+            r = float(rng.uniform(0.02, 0.04))
+            z_lo = max(zone.volume.zmin + 0.3 + r, d.zmax + COVER_CLEARANCE_M + r)
+            start = _landing(rng, world.variant(vid), zone, r, z_lo, z_lo + 0.3)
+            if start is None:  # no clear side (a table's chairs)
+                continue
+            found += 1
+            x, y, z, (vx, vy) = start
+            assert z_lo <= z <= z_lo + 0.3
+            t = math.sqrt(2 * (z - zone.volume.zmin - r) / GRAVITY)
+            lx, ly = x + vx * t - d.center[0], y + vy * t - d.center[1]
+            px, py = c * lx + s * ly, -s * lx + c * ly  # the landing, in the region's frame
+            # its distance beyond the footprint's edge along the way in
+            n = math.hypot(px, py)
+            edge = min(d.half[0] / max(abs(px) / n, 1e-9), d.half[1] / max(abs(py) / n, 1e-9))
+            assert r + 0.02 - 1e-9 <= n - edge <= r + 0.30 + 1e-9
+            assert 1.5 - 1e-9 <= math.hypot(vx, vy) <= 3.0 + 1e-9
+            assert (vx * lx + vy * ly) / (math.hypot(vx, vy) * math.hypot(lx, ly)) < -0.999999
+            assert not d.contains(np.array([[x, y, z]]), 1e-6)[0]
+        assert found >= 10, (vid, zid, found)
+
+
+def test_falls_reach_under_a_sofa_and_a_coffee_table(world):
+    """Of 40 seeded trials, more than 6 come to rest under a sofa (9 cm of clearance) and
+    under a coffee table (36 cm, 36 cm deep); thrown from above the cover at its edge, 1-3
+    of 40 did."""
+    from fallgen.physics.drop import run_trial
+
+    v = world.variant("study_lounge-l1-m1")
+    for zid in ("z04", "z05"):
+        kept = sum(run_trial(world, v, v.zone(zid), t, RehearseConfig(), 2022).reason == "kept"
+                   for t in range(40))
+        assert kept > 6, (zid, kept)
