@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from fallgen.audio.room import (RoomAcoustics, arrivals, band_weights, completeness_time,
-                                image_sources, omni_rir, RirSettings)
+                                image_sources, late_reverb, omni_rir, RirSettings)
 
 FS = 44100
 DIM = (6.0, 4.0, 3.0)
@@ -110,6 +110,21 @@ def test_late_reverb_joins_without_a_jump():
         gap = h[int(tc * FS) - 200:int(tc * FS) + 200]
         assert (gap ** 2).mean() > 0.01 * (pre ** 2).mean()
     assert abs(np.mean(steps)) < 2.0, steps
+
+
+def test_a_shorter_late_reverb_is_the_start_of_the_longer_draw_for_draw():
+    """Made for fewer samples with the noise drawn for the whole length, the late reverb is the
+    whole one's start to the bit, and the generator is left where the whole one leaves it;
+    drawn for its own length only, it is other noise."""
+    room = _uniform(0.2, air=True)
+    ears, level = np.ones((2, 513)), np.full(7, 1e-4)
+    r_full, r_short, r_own = (np.random.default_rng(4) for _ in range(3))
+    full = late_reverb(room, level, 0.05, 2 * FS, FS, r_full, ears)
+    short = late_reverb(room, level, 0.05, FS // 2, FS, r_short, ears, noise_n=2 * FS)
+    own = late_reverb(room, level, 0.05, FS // 2, FS, r_own, ears)
+    assert np.array_equal(short, full[:, :FS // 2])
+    assert r_short.random() == r_full.random()
+    assert not np.allclose(own, short)
 
 
 def test_deterministic_for_the_same_generator():

@@ -33,6 +33,13 @@ CEILING = 0.99
 #: clip's peak (-133 dB; the clip itself is stored in float32), and they cost ~40 % less than
 #: in double (2 s of audio with a 2 s late response: 11.4 ms against 17.8 ms).
 CONVOLUTION_DTYPE = np.float32
+#: The late reverb a clip's sources are convolved with ends once its slowest band has decayed
+#: this much (dB) from its start. Its start lies below the clip's peak, so what is left out
+#: lies over 100 dB under it: under the ambient noise floor (30 dB(A)) by more than 20 dB in
+#: the loudest clip (129 dB SPL), and where the float32 clip has no bits left for it. The
+#: noise the whole length would take is drawn all the same (the part kept and everything
+#: drawn after it are the whole length's).
+LATE_RANGE_DB = 100.0
 
 
 @dataclass(frozen=True)
@@ -153,9 +160,9 @@ class Binaural:
         return h, t_c, fitted_late_level(room, arr, t_c, fs)
 
     def late(self, room: RoomAcoustics, level: np.ndarray, t_c: float, n: int, fs: int,
-             rng: np.random.Generator) -> np.ndarray:
+             rng: np.random.Generator, noise_n: int | None = None) -> np.ndarray:
         return late_reverb(room, level, t_c, n, fs, rng, self.diffuse_power,
-                           frame=self.late_frame)
+                           frame=self.late_frame, noise_n=noise_n)
 
     def rir(self, room: RoomAcoustics, source, listener: Listener, rng: np.random.Generator,
             settings: RirSettings = RirSettings()) -> np.ndarray:
@@ -193,10 +200,19 @@ class Binaural:
             y = oaconvolve(sig[None, :].astype(CONVOLUTION_DTYPE), h.astype(CONVOLUTION_DTYPE),
                            axes=-1)[:, :n]
             out[:, :y.shape[1]] += y
-        late = self.late(room, late_from[1], late_from[0], n, fs, rng)
+        late = self.late(room, late_from[1], late_from[0], late_length(room, late_from[0], fs, n),
+                         fs, rng, noise_n=n)
         out += fftconvolve(total[None, :].astype(CONVOLUTION_DTYPE),
                            late.astype(CONVOLUTION_DTYPE), axes=-1)[:, :n]
         return _clip(out, rng, noise_db_a, fs, n)
+
+
+def late_length(room: RoomAcoustics, start_s: float, sample_rate: int, n: int) -> int:
+    """Samples of the late reverb starting at ``start_s`` that a clip of ``n`` samples is
+    convolved with: until its slowest band has decayed :data:`LATE_RANGE_DB`, at most
+    ``n``."""
+    t = start_s + LATE_RANGE_DB / 60.0 * float(np.max(room.rt60()))
+    return min(n, int(math.ceil(t * sample_rate)))
 
 
 def _clip(pressure: np.ndarray, rng: np.random.Generator, noise_db_a: float, fs: int,

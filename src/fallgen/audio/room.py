@@ -306,16 +306,19 @@ def band_energy(arr: Arrivals, t0: float, t1: float) -> np.ndarray:
 def late_reverb(room: RoomAcoustics, level: np.ndarray, start_s: float, n_out: int,
                 sample_rate: int, rng: np.random.Generator,
                 ear_power: np.ndarray | None = None, ear_distance_m: float = 0.175,
-                frame: int = 1024) -> np.ndarray:
+                frame: int = 1024, noise_n: int | None = None) -> np.ndarray:
     """(E, n_out) decaying noise from ``start_s``: in band b its power per sample is
     level_b exp(-13.82 (t - start_s) / T_b) (T_b: :meth:`RoomAcoustics.rt60`), faded in over
     5 ms at ``start_s``.
     Built frame by frame in the STFT domain (sqrt-Hann frames, 50 % overlap). ``ear_power``
     (E, frame // 2 + 1): each ear's diffuse-field HRTF power; two ears get the diffuse-field
-    interaural coherence."""
+    interaural coherence. ``noise_n``: the noise is drawn for that many samples (at least
+    ``n_out``; default ``n_out``): a response made shorter is the start of the longer one,
+    and ``rng`` is left where the longer one leaves it."""
     E = 1 if ear_power is None else ear_power.shape[0]
     hop = frame // 2
     n_frames = int(math.ceil((n_out + frame) / hop)) + 1
+    n_drawn = int(math.ceil((max(n_out, noise_n or 0) + frame) / hop)) + 1
     f = np.fft.rfftfreq(frame, 1.0 / sample_rate)
     W2 = band_weights(f, room.bands_hz) ** 2
     W2 /= W2.sum(0, keepdims=True)  # power-complementary
@@ -326,8 +329,9 @@ def late_reverb(room: RoomAcoustics, level: np.ndarray, start_s: float, n_out: i
     P = (vb @ W2) * frame  # (T, F): power per bin giving that variance per sample
     shape = (n_frames, len(f))
     X = np.empty((E,) + shape, np.complex64)  # single precision: noise needs no more
-    X.real = rng.standard_normal((E,) + shape, dtype=np.float32)
-    X.imag = rng.standard_normal((E,) + shape, dtype=np.float32)
+    drawn = (E, n_drawn, len(f))
+    X.real = rng.standard_normal(drawn, dtype=np.float32)[:, :n_frames]
+    X.imag = rng.standard_normal(drawn, dtype=np.float32)[:, :n_frames]
     X /= math.sqrt(2)
     if E == 2:
         g = np.sinc(2 * f * ear_distance_m / room.c)  # np.sinc(x) = sin(pi x) / (pi x)
