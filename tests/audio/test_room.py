@@ -6,8 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fallgen.audio.room import (RoomAcoustics, arrivals, band_weights, completeness_time,
-                                image_sources, late_reverb, omni_rir, RirSettings)
+from fallgen.audio.room import (KERNEL, Arrivals, RoomAcoustics, arrivals, band_weights,
+                                completeness_time, image_sources, late_reverb, omni_rir,
+                                render_arrivals, RirSettings)
 
 FS = 44100
 DIM = (6.0, 4.0, 3.0)
@@ -110,6 +111,28 @@ def test_late_reverb_joins_without_a_jump():
         gap = h[int(tc * FS) - 200:int(tc * FS) + 200]
         assert (gap ** 2).mean() > 0.01 * (pre ** 2).mean()
     assert abs(np.mean(steps)) < 2.0, steps
+
+
+def test_an_arrival_is_its_band_limited_fractional_delay():
+    """Two arrivals with flat bands and flat ear spectra render as the real inverse DFT of
+    e^(-2 pi i k (KERNEL / 2 + frac) / KERNEL) (a naive sum over bins, no FFT) placed at
+    their whole-sample delays and added; one beyond the output is left out."""
+    fs, n_out = 48000, 3000
+    delays = np.array([(700 + 0.37) / fs, (705 + 0.81) / fs, (n_out + 10) / fs])
+    arr = Arrivals(delays, np.array([[1.0] * 7, [0.5] * 7, [1.0] * 7]), np.zeros((3, 3)))
+    h = render_arrivals(arr, n_out, fs, np.ones((3, 2, KERNEL // 2 + 1), complex))
+    n = np.arange(KERNEL)[:, None]
+    k = np.arange(KERNEL // 2 + 1)[None, :]
+    twice = np.where((k == 0) | (k == KERNEL // 2), 1.0, 2.0)
+    want = np.zeros(n_out + KERNEL)
+    for (w, frac), a in zip(((700, 0.37), (705, 0.81)), (1.0, 0.5)):
+        x = np.exp(-2j * np.pi * k * (KERNEL // 2 + frac) / KERNEL)
+        kern = (twice * (x * np.exp(2j * np.pi * k * n / KERNEL)).real).sum(1) / KERNEL
+        want[w:w + KERNEL] += a * kern
+    want = want[KERNEL // 2:KERNEL // 2 + n_out]
+    assert np.abs(h - want[None, :]).max() < 1e-12
+    # the kernel peaks at the delay: between samples 700 and 701, nearer 700
+    assert np.argmax(h[0]) == 700 and h[1].sum() == pytest.approx(1.5, rel=1e-9)
 
 
 def test_a_shorter_late_reverb_is_the_start_of_the_longer_draw_for_draw():

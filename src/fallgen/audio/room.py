@@ -31,9 +31,11 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 
 from fallgen.audio.furnished import FurnishedAcoustics, Furnishing, furnishing
 from fallgen.audio.occlusion import path_gains
+from fallgen.audio.phasors import powers
 from fallgen.audio.reflections import furniture_images
 from fallgen.world.materials import OCTAVE_BANDS_HZ
 from fallgen.world.rooms import SHOEBOX_FACES, Shoebox
@@ -254,18 +256,29 @@ def render_arrivals(arr: Arrivals, n_out: int, sample_rate: int, ear_spectra: np
     f = np.fft.rfftfreq(KERNEL, 1.0 / sample_rate)
     W = band_weights(f, bands_hz)  # (B, F)
     pos = arr.delay_s * sample_rate
-    whole = np.floor(pos).astype(int)
+    whole = np.floor(pos).astype(np.int64)
     frac = pos - whole
-    spec = (arr.amplitude @ W) * np.exp(-2j * np.pi * np.outer(frac, f) / sample_rate)  # (N, F)
-    # centre the zero-phase kernel in its KERNEL samples
-    spec = spec * np.exp(-2j * np.pi * f * (KERNEL // 2) / sample_rate)[None, :]
+    # bin k (f_k = k fs / KERNEL) delays by the fraction, e^(-2 pi i frac k / KERNEL), and
+    # centres the zero-phase kernel in its KERNEL samples, e^(-i pi k) = (-1)^k: the powers
+    # of one factor per arrival
+    spec = (arr.amplitude @ W) * powers(-np.exp(-2j * np.pi * frac / KERNEL), len(f))
     spec = spec[:, None, :] * ear_spectra
     k = np.fft.irfft(spec, KERNEL, axis=-1)  # (N, E, KERNEL)
-    ok = whole < n_out
-    idx = whole[ok, None] + np.arange(KERNEL)[None, :]  # position in `out` (offset KERNEL/2)
-    for e in range(E):
-        out[e] += np.bincount(idx.ravel(), k[ok, e].ravel(), minlength=out.shape[1])[:out.shape[1]]
+    _add_kernels(out, k, whole, n_out)  # at their whole-sample delays (offset KERNEL / 2)
     return out[:, KERNEL // 2:KERNEL // 2 + n_out]
+
+
+@njit(cache=True)
+def _add_kernels(out: np.ndarray, k: np.ndarray, whole: np.ndarray, n_out: int) -> None:
+    """out[e, w_i + j] += k[i, e, j] for every arrival i whose whole-sample delay w_i is
+    within ``n_out``, in the arrivals' order."""
+    for i in range(len(whole)):
+        w = whole[i]
+        if w >= n_out:
+            continue
+        for e in range(k.shape[1]):
+            for j in range(k.shape[2]):
+                out[e, w + j] += k[i, e, j]
 
 
 #: Taps of the windowed-sinc fractional delay of the omnidirectional renderer.
