@@ -119,6 +119,20 @@ def first_crossing(c0, c1, w, a, b, sign, dt, horizon):
 
 
 @njit(cache=True)
+def _times(m, u, v, mu, mv, transposed):
+    """``mu`` = M ``u``, ``mv`` = M ``v`` (M^T with ``transposed``), each sum in index order."""
+    n = m.shape[0]
+    for i in range(n):
+        su = 0.0
+        sv = 0.0
+        for r in range(n):
+            w = m[r, i] if transposed else m[i, r]
+            su += w * u[r]
+            sv += w * v[r]
+        mu[i], mv[i] = su, sv
+
+
+@njit(cache=True)
 def phases(mass_kg, speed_mps, sm, omega, b, phi, om, uphi, dt, t_end, max_phases):
     """Follow the contact from its first touch: (q, qd) the modes' displacements and
     velocities at the final parting, the impactor's relative speed then, the contact
@@ -141,13 +155,9 @@ def phases(mass_kg, speed_mps, sm, omega, b, phi, om, uphi, dt, t_end, max_phase
         if touching:  # in contact: the coupled system's normal modes
             y0[0], y1[0] = sm * x, sm * xd
             y0[1:], y1[1:] = q, qd
+            _times(phi, y0, y1, al, be, True)  # the normal coordinates and velocities
             for i in range(na):
-                s0 = 0.0
-                s1 = 0.0
-                for r in range(na):
-                    s0 += phi[r, i] * y0[r]
-                    s1 += phi[r, i] * y1[r]
-                al[i], be[i] = s0, s1 / om[i]
+                be[i] /= om[i]
                 a[i], bb[i] = uphi[i] * al[i], uphi[i] * be[i]
             t_cross = first_crossing(0.0, 0.0, om, a, bb, 1.0, dt, t_end - t_now)
             if t_cross < 0.0:  # held to the end of the search: part there
@@ -158,13 +168,7 @@ def phases(mass_kg, speed_mps, sm, omega, b, phi, om, uphi, dt, t_end, max_phase
                 ys[i] = al[i] * c + be[i] * sn
                 yv[i] = (-al[i] * sn + be[i] * c) * om[i]
             z, zd = np.empty(na), np.empty(na)
-            for r in range(na):
-                s0 = 0.0
-                s1 = 0.0
-                for i in range(na):
-                    s0 += phi[r, i] * ys[i]
-                    s1 += phi[r, i] * yv[i]
-                z[r], zd[r] = s0, s1
+            _times(phi, ys, yv, z, zd, False)
             xd_in = xd
             x, xd = z[0] / sm, zd[0] / sm
             q, qd = z[1:].copy(), zd[1:].copy()
