@@ -124,12 +124,10 @@ def coupled_impact(mass_kg: float, speed_mps: float, contact_time_s: float,
     q, qd, xd, intervals, t_last = phases(
         float(mass_kg), float(speed_mps), sm, omega, b, np.ascontiguousarray(phi), Om,
         np.ascontiguousarray(uphi), dt, _MAX_CONTACTS * tc, _MAX_PHASES)
-    contacts = [tuple(map(float, row)) for row in intervals]
+    contacts = tuple(tuple(map(float, row)) for row in intervals)
     vib = 0.5 * float(np.sum(qd * qd + (omega * q) ** 2))
     splits = np.cumsum([len(np.asarray(w_)) for w_, _ in bodies])[:-1]
     return CoupledImpact(tuple(np.split(q, splits)), tuple(np.split(qd, splits)),
                          float(sum(c[1] for c in contacts)), float(xd),
-                         0.5 * mass_kg * speed_mps ** 2, vib,
-                         tuple((float(a), float(b_), float(j)) for a, b_, j in contacts),
-                         float(t_last))
+                         0.5 * mass_kg * speed_mps ** 2, vib, contacts, float(t_last))
 

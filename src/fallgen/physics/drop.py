@@ -368,7 +368,6 @@ def _beside(rng: np.random.Generator, variant: RoomVariant, zone: Zone, r: float
     return None
 
 
-
 #: A fall under furniture starts at most this far (m) above its lowest start: knocked off the
 #: table top (or the counter, the seat beside it), not thrown from high up.
 LANDING_SPAN_M = 0.3
@@ -419,6 +418,7 @@ def _landing(rng: np.random.Generator, variant: RoomVariant, zone: Zone, r: floa
         if not parts.any_contains(path, 0.5 * r):
             return x, y, z, (-wx * speed, -wy * speed)
     return None
+
 
 def _judge(variant: RoomVariant, zone: Zone, res: SettleResult, com: np.ndarray) -> str:
     lx, ly, h = variant.size_m
