@@ -417,3 +417,32 @@ def test_a_chattering_contacts_force_is_its_pulses():
             assert not f[i1:int(round((0.01 + pulses[k + 1][0]) * fs))].any()
     spread = force_signal([ModalHit(0.01, np.zeros(3), 1.0, 9.8e-3)], fs // 10, fs)
     assert spread.max() < 0.25 * f.max()
+
+
+def test_a_hit_train_sounds_as_its_hits_one_by_one(bar_ref):
+    """A scrape's bumps kept as one train of arrays (:class:`fallgen.audio.hits.HitTrain`)
+    ring the modes, jerk the body and push a plate exactly as the same bumps as single hits
+    do, those without impulse or past the output's end left out alike; a train with fewer
+    impulses than times is refused."""
+    from fallgen.audio.hits import HitTrain
+    from fallgen.audio.impact import plate_pressure
+
+    body = _body(bar_ref, STEEL)
+    rng = np.random.default_rng(3)
+    times = 0.02 + np.sort(rng.uniform(0.0, 0.01, 40))
+    times[-1] = 0.6  # after the 0.5 s rendered
+    impulses = np.abs(rng.normal(0.0, 1e-4, 40))
+    impulses[5] = 0.0
+    train = HitTrain(times, TIP, impulses, 2e-4, np.array([0.0, 0.0, -1.0]))
+    impact = _hit(body, 1.5)
+    whole = render(body, [impact, train], 0.5, FS, volume_m3=1.6e-5)
+    assert np.array_equal(whole, render(body, [impact, *train.hits()], 0.5, FS, volume_m3=1.6e-5))
+    alone = render(body, [train], 0.5, FS, volume_m3=1.6e-5)
+    assert np.array_equal(alone, render(body, train.hits(), 0.5, FS, volume_m3=1.6e-5))
+    assert np.abs(alone).max() > 0 and not np.array_equal(whole, render(body, [impact], 0.5, FS,
+                                                                         volume_m3=1.6e-5))
+    n = FS // 2
+    assert np.array_equal(plate_pressure(20.0, [train], n, FS),
+                          plate_pressure(20.0, train.hits(), n, FS))
+    with pytest.raises(ValueError, match="one impulse per time"):
+        HitTrain(times, TIP, impulses[:3], 2e-4)

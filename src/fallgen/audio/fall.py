@@ -52,7 +52,8 @@ import trimesh
 from fallgen.audio.coupling import coupled_impact
 from fallgen.audio.floors import MOUNTED_LOSS_FACTOR, surface_plate
 from fallgen.audio.hertz import hertz_impact, plate_contact
-from fallgen.audio.impact import ModalHit, SoundingBody, plate_pressure, render
+from fallgen.audio.hits import Hit, HitTrain, ModalHit
+from fallgen.audio.impact import SoundingBody, plate_pressure, render
 from fallgen.audio.mix import DrySource
 from fallgen.audio.modal_model import ModalModel, round_nu
 from fallgen.audio.modes import ModalSettings, modal_model
@@ -97,7 +98,7 @@ class _Body:
     #: a free body (an object): a hit jerks it as a whole, which radiates (acceleration
     #: noise); a furniture part or a room surface is held by the rest and only rings
     free: bool = True
-    hits: list[ModalHit] = field(default_factory=list)
+    hits: list[Hit] = field(default_factory=list)
     group: list[int] = field(default_factory=list)  # source group of each hit
 
     def render(self, s: AudioSettings, group: int | None = None) -> np.ndarray:
@@ -484,6 +485,5 @@ class FallRenderer:
         amp = ratio * c.mean_force_n * c.duration_s / math.sqrt(k)
         times = c.time_s + np.sort(rng.uniform(0, c.duration_s, k))
         mags = np.abs(rng.normal(0.0, amp, k))
-        for t, j in zip(times, mags):
-            target.hits.append(ModalHit(float(t), np.asarray(c.point_object), float(j), tb))
-            other.hits.append(ModalHit(float(t), p_other, float(j), tb, -n_other))
+        target.hits.append(HitTrain(times, np.asarray(c.point_object, float), mags, tb))
+        other.hits.append(HitTrain(times, p_other, mags, tb, -n_other))

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -36,6 +37,7 @@ import numpy as np
 
 from fallgen.audio.coupling import ringing_gains
 from fallgen.audio.hertz import half_sine_spectrum
+from fallgen.audio.hits import Hit, ModalHit, impulse_table, pulse_table
 from fallgen.audio.modal_model import ModalModel
 from fallgen.audio.phasors import powers
 
@@ -110,35 +112,7 @@ def radiation_factors(m: ModalModel, r: float = REFERENCE_DISTANCE_M) -> np.ndar
     return np.minimum(p_low, p_high)
 
 
-@dataclass(frozen=True)
-class ModalHit:
-    """An impulse on a body: when, where (body frame), along which unit direction (body frame;
-    None = the surface normal there), how strong, and how long the force pulse lasts."""
-
-    time_s: float
-    point: np.ndarray
-    impulse_ns: float
-    duration_s: float
-    direction: np.ndarray | None = None
-    #: An impact solved as a contact with the body's modes
-    #: (:func:`fallgen.audio.coupling.coupled_impact`): every mode's displacement and velocity
-    #: when the bodies part, and when that is after ``time_s``. The modes then ring from that
-    #: state instead of from the impulse (which still makes the rigid-body noise).
-    modal_state: tuple[np.ndarray, np.ndarray, float] | None = None
-    #: The contact force as a train of half-sine pulses, one per contact interval of a contact
-    #: that chatters: (start after ``time_s`` (s), impulse (N s), duration (s)) each; their
-    #: impulses sum to ``impulse_ns``. None: one pulse of ``impulse_ns`` lasting
-    #: ``duration_s`` from ``time_s``.
-    pulses: tuple[tuple[float, float, float], ...] | None = None
-
-    def force_pulses(self) -> tuple[tuple[float, float, float], ...]:
-        """(start (s), impulse (N s), duration (s)) of each half-sine pulse of the force."""
-        if self.pulses is None:
-            return ((self.time_s, self.impulse_ns, self.duration_s),)
-        return tuple((self.time_s + t, j, d) for t, j, d in self.pulses)
-
-
-def rigid_body_pressure(volume_m3: float, mass_kg: float, hits: list[ModalHit], n_out: int,
+def rigid_body_pressure(volume_m3: float, mass_kg: float, hits: Sequence[Hit], n_out: int,
                         sample_rate: int, r: float = REFERENCE_DISTANCE_M) -> np.ndarray:
     """"Acceleration noise": a body jerked by a contact force F(t) radiates as the rigid
     sphere of its volume (radius a = (3 V / 4 pi)^(1/3)) oscillating with its velocity U,
@@ -213,27 +187,24 @@ def decay_samples(a: np.ndarray, drop_db: float) -> int:
     return 2 * int(math.ceil(drop_db / 20.0 * math.log(10.0) / -math.log(rho))) + 2
 
 
-def force_signal(hits: list[ModalHit], n_out: int, sample_rate: int) -> np.ndarray:
+def force_signal(hits: Sequence[Hit], n_out: int, sample_rate: int) -> np.ndarray:
     """The hits' half-sine force pulses (N; :meth:`ModalHit.force_pulses`), each sample the
     mean force over its interval (the impulse it receives times the rate: every pulse's impulse
     exactly, however short)."""
     return _pushed(hits, n_out, sample_rate)[0]
 
 
-def _pushed(hits: list[ModalHit], n_out: int, sample_rate: int) -> tuple[np.ndarray, int, int]:
+def _pushed(hits: Sequence[Hit], n_out: int, sample_rate: int) -> tuple[np.ndarray, int, int]:
     """:func:`force_signal`, and the samples its pulses touch: every force sample outside
     [first, stop) is zero (first = stop = 0 when none is pushed)."""
     fs = float(sample_rate)
     force = np.zeros(n_out)
-    pulses = [p for h in hits for p in h.force_pulses()
-              if p[1] > 0 and int(round(p[0] * fs)) < n_out]
-    if not pulses:
+    i0, J, tc = pulse_table(hits, n_out, sample_rate)
+    if not len(J):
         return force, 0, 0
-    i0 = np.array([int(round(t * fs)) for t, _, _ in pulses])
-    J = np.array([j for _, j, _ in pulses])
-    tc = np.maximum([d for _, _, d in pulses], 1e-9)
+    tc = np.maximum(tc, 1e-9)
     n = np.ceil(tc * fs).astype(int) + 1  # sample intervals each pulse touches
-    hit = np.repeat(np.arange(len(pulses)), n)  # every interval, pulse by pulse
+    hit = np.repeat(np.arange(len(J)), n)  # every interval, pulse by pulse
     j = np.arange(len(hit)) - np.repeat(np.cumsum(n) - n, n)  # interval within its pulse
     Jh, th = J[hit], tc[hit]
     # the impulse delivered up to the interval's start and its end (the last: all of it)
@@ -246,7 +217,7 @@ def _pushed(hits: list[ModalHit], n_out: int, sample_rate: int) -> tuple[np.ndar
     return force, int(i0.min()), int(min(n_out, at.max() + 1))
 
 
-def plate_pressure(mass_per_area_kg_m2: float, hits: list[ModalHit], n_out: int,
+def plate_pressure(mass_per_area_kg_m2: float, hits: Sequence[Hit], n_out: int,
                    sample_rate: int, r: float = REFERENCE_DISTANCE_M,
                    coincidence_hz: float | None = None, loss_factor: float = 0.05,
                    stiffness_ratio: float = 1.0) -> np.ndarray:
@@ -462,7 +433,7 @@ def _free_blocks(s: np.ndarray, zB: np.ndarray, W: np.ndarray, out: np.ndarray, 
     return s
 
 
-def render(body: SoundingBody, hits: list[ModalHit], length_s: float,
+def render(body: SoundingBody, hits: Sequence[Hit], length_s: float,
            sample_rate: int = 44100, volume_m3: float | None = None) -> np.ndarray:
     """Pressure at 1 m (Pa, float64) of ``body`` ringing from ``hits``, ``length_s`` long.
 
@@ -483,33 +454,33 @@ def render(body: SoundingBody, hits: list[ModalHit], length_s: float,
     d = eta * w / 2
     wd = w * np.sqrt(np.maximum(1 - (eta / 2) ** 2, 1e-6))
     R = body.radiation()[keep]
-    # modal impulses per hit (sparse: a hit is one sample per mode)
-    live = [h for h in hits if h.impulse_ns > 0 and int(round(h.time_s * sample_rate)) < n_out]
-    if not live:
+    # modal impulses per hit (sparse: a hit is one sample per mode); a train's impulses share
+    # its point, direction and duration, so their gains differ by the impulse alone
+    tab = impulse_table(hits, n_out, sample_rate)
+    if not tab.items:
         return out
-    idx = np.array([int(round((h.time_s + (h.modal_state[2] if h.modal_state else 0.0))
-                              * sample_rate)) for h in live])
     # hits share few points (a scrape's bumps all land on its contact point): one nearest-node
     # search per distinct point
     first: dict[tuple[float, ...], int] = {}
     which = [first.setdefault(tuple(np.asarray(h.point, float).ravel()), len(first))
-             for h in live]
+             for h in tab.items]
     nodes = m.nearest(np.array(list(first)))[which]
     n_dir = np.array([m.normal(nd) if h.direction is None else np.asarray(h.direction, float)
-                      for nd, h in zip(nodes, live)])  # (H, 3)
-    phi = m.shapes[nodes][:, :, keep].astype(float) * m.shape_factor  # (H, 3, n)
-    dur = np.array([h.duration_s for h in live])
-    J = np.array([h.impulse_ns for h in live])
+                      for nd, h in zip(nodes, tab.items)])  # (I, 3)
+    phi = m.shapes[nodes][:, :, keep].astype(float) * m.shape_factor  # (I, 3, n)
+    row = np.searchsorted(tab.item, np.arange(len(tab.items)))  # each item's first impulse
     # the pulse spectrum depends on omega * duration only
-    g = np.einsum("hc,hcn->hn", n_dir, phi) * J[:, None] \
-        * half_sine_spectrum(w[None, :] * dur[:, None], 1.0)
-    coupled = [k for k, h in enumerate(live) if h.modal_state is not None]
+    spectrum = half_sine_spectrum(w[None, :] * tab.duration[row][:, None], 1.0)
+    g = np.einsum("hc,hcn->hn", n_dir, phi)[tab.item] * tab.impulse[:, None] \
+        * spectrum[tab.item]
+    coupled = [k for k, h in enumerate(tab.items)
+               if isinstance(h, ModalHit) and h.modal_state is not None]
     if coupled:  # ringing from the state the contact left
         g = g.astype(complex)
         for k in coupled:
-            q0, v0, _ = live[k].modal_state
-            g[k] = ringing_gains(q0[keep], v0[keep], wd, d)
+            q0, v0, _ = tab.items[k].modal_state
+            g[row[k]] = ringing_gains(q0[keep], v0[keep], wd, d)
     T = 1.0 / sample_rate
     z = np.exp((-d + 1j * wd) * T)
-    modal_sum(z, R / wd, idx, g, n_out, out=out)
+    modal_sum(z, R / wd, tab.sample, g, n_out, out=out)
     return out
