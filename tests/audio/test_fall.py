@@ -321,9 +321,11 @@ def test_model_budget_keeps_recent_models_and_the_same_sound(world, renderer, dr
         assert np.array_equal(small.render(e, np.random.default_rng(4)), ref)
         assert len(small._models) == 1
     assert small._model_bytes == sum(_nbytes(m) for m in small._models.values())
-    # a model loaded again carries the surface moments computed at its first load
+    # a model loaded again carries the surface moments computed at its first load, and its
+    # shapes are read from the cache file where they are indexed (not held in memory)
     (key, model), = small._models.items()
     assert model.moments is small._moments[key]
+    assert _nbytes(model) < model.shapes.nbytes
     assert len(small._moments) >= 2
     big = FallRenderer(world, renderer.s)
     big.render(e, np.random.default_rng(4))

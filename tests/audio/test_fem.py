@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import zipfile
 
 import numpy as np
 import pytest
@@ -122,3 +123,33 @@ def test_voxelizer_keeps_volume():
         assert vs.volume_error == pytest.approx(abs(filled - mesh.volume) / mesh.volume,
                                                 abs=1e-9)
         assert vs.n_voxels == int(np.count_nonzero(vs.occupied)) > 0
+
+
+def test_a_mapped_model_is_the_cached_one_read_from_its_file(tmp_path):
+    """A model loaded again with its mode shapes mapped from the cache file holds the same
+    arrays as a full load without copying the shapes into memory; a truncated entry is
+    recomputed, not mapped."""
+    box = trimesh.creation.box((0.08, 0.012, 0.006))
+    s = ModalSettings(target_voxels=600, n_modes=10)
+    ref = modal_model(box.vertices, box.faces, NU, s, tmp_path)
+    mapped = modal_model(box.vertices, box.faces, NU, s, tmp_path, mapped=True)
+    for name in ("omega", "points", "area", "shapes"):
+        assert np.array_equal(getattr(mapped, name), getattr(ref, name)), name
+    assert mapped.shapes.dtype == ref.shapes.dtype and mapped.shapes.flags.c_contiguous
+    base = mapped.shapes
+    while isinstance(base, np.ndarray) and not isinstance(base, np.memmap):
+        base = base.base
+    assert isinstance(base, np.memmap) and not mapped.shapes.flags.writeable
+    assert ref.shapes.flags.owndata or not isinstance(ref.shapes.base, np.memmap)
+    # an entry whose shapes lack their last 400 bytes (the zip itself sound)
+    f = next(tmp_path.glob("*.npz"))
+    with zipfile.ZipFile(f) as z:
+        members = {n: z.read(n) for n in z.namelist()}
+    members["shapes.npy"] = members["shapes.npy"][:-400]
+    with zipfile.ZipFile(f, "w") as z:
+        for name, data in members.items():
+            z.writestr(name, data)
+    again = modal_model(box.vertices, box.faces, NU, s, tmp_path, mapped=True)
+    assert np.array_equal(again.shapes, ref.shapes)
+    with zipfile.ZipFile(f) as z:  # recomputed and cached whole again
+        assert len(z.read("shapes.npy")) == len(members["shapes.npy"]) + 400

@@ -138,7 +138,18 @@ def part_mesh(gtype: int, size: np.ndarray) -> trimesh.Trimesh:
 
 
 def _nbytes(m: ModalModel) -> int:
-    return m.shapes.nbytes + m.points.nbytes + m.area.nbytes + m.omega.nbytes
+    """The bytes a model holds in memory (its shapes none when mapped from the cache)."""
+    return _resident(m.shapes) + m.points.nbytes + m.area.nbytes + m.omega.nbytes
+
+
+def _resident(a: np.ndarray) -> int:
+    """Bytes of ``a`` held in memory: 0 for an array mapped from a file."""
+    b = a
+    while isinstance(b, np.ndarray):
+        if isinstance(b, np.memmap):
+            return 0
+        b = b.base
+    return a.nbytes
 
 
 def _quat_mat(quat) -> np.ndarray:
@@ -247,8 +258,12 @@ class FallRenderer:
             self._models.move_to_end(key)
             return model
         v, f, nu = mesh()
-        model = self._models[key] = modal_model(v, f, nu, self.s.modal, self.s.cache_dir, shell)
-        if key in self._moments:  # loaded again: the moments it had (the same arrays)
+        # loaded again: the moments its first load computed from all of it (the same arrays),
+        # its shapes mapped from the cache (a render reads the rows of a few nodes)
+        again = key in self._moments
+        model = self._models[key] = modal_model(v, f, nu, self.s.modal, self.s.cache_dir, shell,
+                                                mapped=again)
+        if again:
             object.__setattr__(model, "moments", self._moments[key])
         else:
             self._moments[key] = model.surface_moments()
@@ -280,10 +295,14 @@ class FallRenderer:
             return self._surface_body(mat, surface, pos, rot)
         nu = mat.poisson_ratio
         gtype, size = int(m.geom_type[gid]), m.geom_size[gid].copy()
-        key, mesh = ("part", gtype, *map(float, size), nu), part_mesh(gtype, size)
         vol = math.pi * size[0] ** 2 * 2 * size[1] \
             if gtype == int(mujoco.mjtGeom.mjGEOM_CYLINDER) else float(np.prod(2 * size[:3]))
-        ref = self._ref(key, lambda: (mesh.vertices, mesh.faces, nu))
+
+        def mesh() -> tuple[np.ndarray, np.ndarray, float]:
+            solid = part_mesh(gtype, size)
+            return solid.vertices, solid.faces, nu
+
+        ref = self._ref(("part", gtype, *map(float, size), nu), mesh)
         body = _sounding(ref, mat, 1.0, mat.density_kg_m3 * vol, math.inf, MOUNTED_LOSS_FACTOR)
         return _Body(body, vol, pos, rot, mat, free=False)
 

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import hashlib
 import io
+import struct
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -129,11 +131,42 @@ def _save(path: Path, m: ModalModel) -> None:
     write_bytes(path, buf.getvalue())
 
 
-def _load(path: Path) -> ModalModel:
+def _load(path: Path, mapped: bool = False) -> ModalModel:
+    """A cached model; ``mapped``: its mode shapes (nine tenths of it) mapped from the file,
+    read where they are indexed (a render reads a few surface nodes' rows), not copied into
+    memory, and not checked against the file's CRC (a full load checks every array)."""
     with np.load(path) as z:
         nu, h, nvox, err = z["meta"]
-        return ModalModel(z["omega"], z["points"], z["area"], z["shapes"], float(nu), float(h),
+        shapes = _mapped(path, z.zip, "shapes.npy") if mapped else z["shapes"]
+        return ModalModel(z["omega"], z["points"], z["area"], shapes, float(nu), float(h),
                           int(nvox), float(err))
+
+
+def _mapped(path: Path, zf: zipfile.ZipFile, member: str) -> np.ndarray:
+    """The array stored (uncompressed) as ``member`` of the ``.npz`` at ``path``, mapped
+    read-only from the file (``np.savez`` stores its members uncompressed); raises
+    ``zipfile.BadZipFile`` or ``ValueError`` where the entry is not what it says (truncated)."""
+    info = zf.getinfo(member)
+    if info.compress_type != zipfile.ZIP_STORED:
+        raise zipfile.BadZipFile(f"{path}: {member} is compressed")
+    with open(path, "rb") as f:
+        f.seek(info.header_offset)
+        head = f.read(30)  # the local file header; its name and extra field follow
+        if len(head) < 30 or head[:4] != b"PK\x03\x04":
+            raise zipfile.BadZipFile(f"{path}: no local header for {member}")
+        n_name, n_extra = struct.unpack("<HH", head[26:30])
+        start = info.header_offset + 30 + n_name + n_extra
+        f.seek(start)
+        version = np.lib.format.read_magic(f)
+        read_header = np.lib.format.read_array_header_1_0 if version == (1, 0) \
+            else np.lib.format.read_array_header_2_0
+        shape, fortran, dtype = read_header(f)
+        offset = f.tell()
+    size = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+    if offset + size != start + info.file_size:
+        raise ValueError(f"{path}: {member} holds {info.file_size} bytes, not its array's")
+    return np.asarray(np.memmap(path, dtype=dtype, mode="r", offset=offset, shape=shape,
+                                order="F" if fortran else "C"))
 
 
 def shell_model(shell: ThinShell, nu: float, settings: ModalSettings = ModalSettings()
@@ -148,15 +181,17 @@ def shell_model(shell: ThinShell, nu: float, settings: ModalSettings = ModalSett
 
 def modal_model(vertices: np.ndarray, faces: np.ndarray, nu: float,
                 settings: ModalSettings = ModalSettings(),
-                cache_dir: Path | None = None, shell: ThinShell | None = None) -> ModalModel:
+                cache_dir: Path | None = None, shell: ThinShell | None = None,
+                mapped: bool = False) -> ModalModel:
     """The shape's reference modal model: from its thin ``shell`` when it has one, else from
-    the cache or solved by voxel FEM (and cached)."""
+    the cache (``mapped``: its mode shapes mapped from the file, see :func:`_load`) or solved
+    by voxel FEM (and cached)."""
     if shell is not None:
         return shell_model(shell, nu, settings)
     path = cache_path(vertices, faces, nu, settings, cache_dir)
     if path.exists():
         try:
-            return _load(path)
+            return _load(path, mapped)
         except CORRUPT_ENTRY:
             path.unlink(missing_ok=True)  # a corrupt cache entry is recomputed
     m = solve_shape(vertices, faces, round_nu(nu), settings)
