@@ -11,6 +11,7 @@ rho)) / s, and mass-normalised shapes phi = phi_ref sqrt(rho_ref / rho) s^(-3/2)
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -70,8 +71,13 @@ class ModalModel:
     def nearest(self, points: np.ndarray) -> np.ndarray:
         """Indices of the surface nodes nearest to each of ``points`` (K, 3)."""
         p = np.asarray(points, float).reshape(-1, 3)
-        d2 = (p ** 2).sum(1)[:, None] - 2 * p @ self.points.T + (self.points ** 2).sum(1)[None, :]
+        d2 = (p ** 2).sum(1)[:, None] - 2 * p @ self.points.T + self._node_norms[None, :]
         return np.argmin(d2, axis=1)
+
+    @cached_property
+    def _node_norms(self) -> np.ndarray:
+        """|x|^2 of every surface node (once per model: a fall asks for nodes many times)."""
+        return (self.points ** 2).sum(1)
 
     def normal(self, node: int) -> np.ndarray:
         """Outward unit normal at a surface node."""
