@@ -56,7 +56,7 @@ from fallgen.audio.hits import Hit, HitTrain, ModalHit
 from fallgen.audio.impact import SoundingBody, plate_pressure, render
 from fallgen.audio.mix import DrySource
 from fallgen.audio.modal_model import ModalModel, round_nu
-from fallgen.audio.modes import ModalSettings, modal_model
+from fallgen.audio.modes import ModalSettings, StoredArray, modal_model
 from fallgen.audio.shells import plate_model
 from fallgen.physics.contacts import ContactEvent
 from fallgen.physics.events import GRAVITY, FallEvent
@@ -138,18 +138,9 @@ def part_mesh(gtype: int, size: np.ndarray) -> trimesh.Trimesh:
 
 
 def _nbytes(m: ModalModel) -> int:
-    """The bytes a model holds in memory (its shapes none when mapped from the cache)."""
-    return _resident(m.shapes) + m.points.nbytes + m.area.nbytes + m.omega.nbytes
-
-
-def _resident(a: np.ndarray) -> int:
-    """Bytes of ``a`` held in memory: 0 for an array mapped from a file."""
-    b = a
-    while isinstance(b, np.ndarray):
-        if isinstance(b, np.memmap):
-            return 0
-        b = b.base
-    return a.nbytes
+    """The bytes a model holds in memory (its shapes none when left in the cache file)."""
+    shapes = 0 if isinstance(m.shapes, StoredArray) else m.shapes.nbytes
+    return shapes + m.points.nbytes + m.area.nbytes + m.omega.nbytes
 
 
 def _quat_mat(quat) -> np.ndarray:
@@ -259,7 +250,7 @@ class FallRenderer:
             return model
         v, f, nu = mesh()
         # loaded again: the moments its first load computed from all of it (the same arrays),
-        # its shapes mapped from the cache (a render reads the rows of a few nodes)
+        # its shapes left in the cache file (a render reads the rows of a few nodes)
         again = key in self._moments
         model = self._models[key] = modal_model(v, f, nu, self.s.modal, self.s.cache_dir, shell,
                                                 mapped=again)

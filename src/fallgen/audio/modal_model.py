@@ -28,7 +28,8 @@ class ModalModel:
     area: np.ndarray  # (S, 3) outward area vector of each surface node, m^2
     #: (S, 3, n) mass-normalised mode shapes at the surface nodes of the reference model; this
     #: model's shapes are ``shapes * shape_factor`` (see :meth:`phi`), so that rescaling copies
-    #: no per-node array.
+    #: no per-node array. A model loaded again from the cache leaves them in its file
+    #: (:class:`fallgen.audio.modes.StoredArray`: the rows indexed are read).
     shapes: np.ndarray
     nu: float
     h: float  # voxel side, m

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import hashlib
 import io
+import os
 import struct
 import zipfile
 from dataclasses import dataclass
@@ -132,19 +133,72 @@ def _save(path: Path, m: ModalModel) -> None:
 
 
 def _load(path: Path, mapped: bool = False) -> ModalModel:
-    """A cached model; ``mapped``: its mode shapes (nine tenths of it) mapped from the file,
-    read where they are indexed (a render reads a few surface nodes' rows), not copied into
-    memory, and not checked against the file's CRC (a full load checks every array)."""
+    """A cached model; ``mapped``: its mode shapes (nine tenths of it) left in the file as a
+    :class:`StoredArray`, read where they are indexed (a render reads a few surface nodes'
+    rows), not held in memory, and not checked against the file's CRC (a full load checks
+    every array)."""
     with np.load(path) as z:
         nu, h, nvox, err = z["meta"]
-        shapes = _mapped(path, z.zip, "shapes.npy") if mapped else z["shapes"]
+        shapes = _stored(path, z.zip, "shapes.npy") if mapped else z["shapes"]
         return ModalModel(z["omega"], z["points"], z["area"], shapes, float(nu), float(h),
                           int(nvox), float(err))
 
 
-def _mapped(path: Path, zf: zipfile.ZipFile, member: str) -> np.ndarray:
-    """The array stored (uncompressed) as ``member`` of the ``.npz`` at ``path``, mapped
-    read-only from the file (``np.savez`` stores its members uncompressed); raises
+class StoredArray:
+    """A read-only C-ordered array of ``shape`` and ``dtype`` at ``offset`` in the file at
+    ``path``: indexing its first axis (an integer or an integer array) reads those rows alone
+    (``os.pread``); ``np.asarray`` reads it whole. A file read this way keeps no page of it in
+    the process (a memory map faults in ~64 kB around every row read: 120 models with 6 rows
+    read each held 64 MB)."""
+
+    def __init__(self, path: Path, offset: int, shape: tuple[int, ...], dtype) -> None:
+        self.path, self.offset = str(path), int(offset)
+        self.shape, self.dtype = tuple(int(n) for n in shape), np.dtype(dtype)
+        self.row_bytes = int(np.prod(self.shape[1:], dtype=np.int64)) * self.dtype.itemsize
+
+    @property
+    def ndim(self) -> int:
+        return len(self.shape)
+
+    @property
+    def nbytes(self) -> int:
+        return self.shape[0] * self.row_bytes
+
+    def __len__(self) -> int:
+        return self.shape[0]
+
+    def __getitem__(self, index) -> np.ndarray:
+        rows = np.asarray(index)
+        if not np.issubdtype(rows.dtype, np.integer):
+            raise TypeError(f"a stored array is indexed by rows, not {rows.dtype}")
+        flat = rows.ravel()
+        if len(flat) and (flat.min() < -self.shape[0] or flat.max() >= self.shape[0]):
+            raise IndexError(f"rows {flat.min()}..{flat.max()} of {self.shape[0]}")
+        out = np.empty((len(flat), *self.shape[1:]), self.dtype)
+        fd = os.open(self.path, os.O_RDONLY)
+        try:
+            for k, r in enumerate(flat.tolist()):
+                start = self.offset + (r % self.shape[0]) * self.row_bytes
+                data = os.pread(fd, self.row_bytes, start)
+                if len(data) != self.row_bytes:
+                    raise ValueError(f"{self.path}: row {r} lies past the end of the file")
+                out[k] = np.frombuffer(data, self.dtype).reshape(self.shape[1:])
+        finally:
+            os.close(fd)
+        return out.reshape(rows.shape + self.shape[1:])
+
+    def __array__(self, dtype=None, copy=None) -> np.ndarray:
+        whole = np.fromfile(self.path, self.dtype, int(np.prod(self.shape, dtype=np.int64)),
+                            offset=self.offset).reshape(self.shape)
+        return whole if dtype is None else whole.astype(dtype)
+
+    def astype(self, dtype) -> np.ndarray:
+        return np.asarray(self).astype(dtype)
+
+
+def _stored(path: Path, zf: zipfile.ZipFile, member: str) -> StoredArray:
+    """The array stored (uncompressed, C-ordered) as ``member`` of the ``.npz`` at ``path``,
+    left in the file (``np.savez`` stores its members uncompressed); raises
     ``zipfile.BadZipFile`` or ``ValueError`` where the entry is not what it says (truncated)."""
     info = zf.getinfo(member)
     if info.compress_type != zipfile.ZIP_STORED:
@@ -162,11 +216,12 @@ def _mapped(path: Path, zf: zipfile.ZipFile, member: str) -> np.ndarray:
             else np.lib.format.read_array_header_2_0
         shape, fortran, dtype = read_header(f)
         offset = f.tell()
+    if fortran and len(shape) > 1:
+        raise ValueError(f"{path}: {member} is stored in Fortran order")
     size = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
     if offset + size != start + info.file_size:
         raise ValueError(f"{path}: {member} holds {info.file_size} bytes, not its array's")
-    return np.asarray(np.memmap(path, dtype=dtype, mode="r", offset=offset, shape=shape,
-                                order="F" if fortran else "C"))
+    return StoredArray(path, offset, shape, dtype)
 
 
 def shell_model(shell: ThinShell, nu: float, settings: ModalSettings = ModalSettings()
@@ -184,7 +239,7 @@ def modal_model(vertices: np.ndarray, faces: np.ndarray, nu: float,
                 cache_dir: Path | None = None, shell: ThinShell | None = None,
                 mapped: bool = False) -> ModalModel:
     """The shape's reference modal model: from its thin ``shell`` when it has one, else from
-    the cache (``mapped``: its mode shapes mapped from the file, see :func:`_load`) or solved
+    the cache (``mapped``: its mode shapes left in the file, see :func:`_load`) or solved
     by voxel FEM (and cached)."""
     if shell is not None:
         return shell_model(shell, nu, settings)
