@@ -196,10 +196,11 @@ def contact_pulses(contacts, impulse_ns: float, plate_duration_s: float
 class FallRenderer:
     """Renders fall events of one world; keeps the modal models it has used most recently,
     up to ``model_budget_bytes`` (a worker of a full build meets ~300 models, ~500 MB; one
-    dropped is loaded again from the modal cache, the same model, ~3 ms for the largest, its
-    surface moments kept: they cost more than the load). Kept models stay resident: on 300
-    episodes of two paper-size shards, 32 MB loaded 575 models against 128 MB's 341, +0.3 s
-    of CPU in all, and left 96 MB less in the process."""
+    dropped is loaded again from the modal cache, the same model, its surface moments kept and
+    its mode shapes, nine tenths of it, left in the file and read by the rows a render needs:
+    such a model counts ~160 kB instead of ~1.7 MB). Kept models stay resident: on 300
+    episodes of two paper-size shards, 32 MB loaded 575 models against 128 MB's 341 (each
+    load then read the whole model) and left 96 MB less in the process."""
 
     def __init__(self, world: World, settings: AudioSettings = AudioSettings(),
                  model_budget_bytes: int = 32 * 2 ** 20) -> None:
