@@ -103,21 +103,24 @@ def pulse_table(hits: Sequence[Hit], n_out: int, sample_rate: int
 
 @dataclass(frozen=True)
 class ImpulseTable:
-    """The impulses of a body's hits that the modes hear, in the hits' order: ``sample``
-    (H,) where each starts the modes ringing, ``impulse`` and ``duration`` (H,), ``item``
-    (H,): which of ``items`` (the hits that have any) it comes from."""
+    """The impulses of a body's hits that the modes hear, in the hits' order: ``sample`` (H,)
+    where each starts the modes ringing, ``impulse`` (H,), ``item`` (H,) which of ``items``
+    (the hits that have any) it comes from; per item, its pulses' ``duration`` (I,) and the
+    ``start`` (I,) of its impulses in the table."""
 
     sample: np.ndarray
     impulse: np.ndarray
-    duration: np.ndarray
     item: np.ndarray
     items: tuple[Hit, ...]
+    duration: np.ndarray
+    start: np.ndarray
 
 
 def impulse_table(hits: Sequence[Hit], n_out: int, sample_rate: int) -> ImpulseTable:
     """The impulses of ``hits`` that push (> 0) and come within ``n_out`` samples; an impact
     that left the modes a state (``modal_state``) starts them ringing where the bodies part."""
-    sample, impulse, duration, item, items = [], [], [], [], []
+    sample, impulse, items, duration, start = [], [], [], [], []
+    rows = 0
     for h in hits:
         if isinstance(h, HitTrain):
             j = np.asarray(h.impulses_ns, float)
@@ -126,20 +129,23 @@ def impulse_table(hits: Sequence[Hit], n_out: int, sample_rate: int) -> ImpulseT
             if not ok.any():
                 continue
             at, j = at[ok], j[ok]
-            d = np.full(len(j), float(h.duration_s))
         else:
             if not (h.impulse_ns > 0 and int(round(h.time_s * sample_rate)) < n_out):
                 continue
             at = np.array([int(round((h.time_s + (h.modal_state[2] if h.modal_state else 0.0))
                                      * sample_rate))])
-            j, d = np.array([h.impulse_ns], float), np.array([h.duration_s], float)
+            j = np.array([h.impulse_ns], float)
         sample.append(at)
         impulse.append(j)
-        duration.append(d)
-        item.append(np.full(len(j), len(items), np.int64))
         items.append(h)
+        duration.append(float(h.duration_s))
+        start.append(rows)
+        rows += len(j)
     if not items:
         e = np.zeros(0)
-        return ImpulseTable(e.astype(np.int64), e, e, e.astype(np.int64), ())
-    return ImpulseTable(np.concatenate(sample), np.concatenate(impulse),
-                        np.concatenate(duration), np.concatenate(item), tuple(items))
+        return ImpulseTable(e.astype(np.int64), e, e.astype(np.int64), (), e,
+                            e.astype(np.int64))
+    start_ = np.array(start, np.int64)
+    item = np.repeat(np.arange(len(items)), np.diff(np.append(start_, rows)))
+    return ImpulseTable(np.concatenate(sample), np.concatenate(impulse), item, tuple(items),
+                        np.array(duration, float), start_)

@@ -468,9 +468,8 @@ def render(body: SoundingBody, hits: Sequence[Hit], length_s: float,
     n_dir = np.array([m.normal(nd) if h.direction is None else np.asarray(h.direction, float)
                       for nd, h in zip(nodes, tab.items)])  # (I, 3)
     phi = m.shapes[nodes][:, :, keep].astype(float) * m.shape_factor  # (I, 3, n)
-    row = np.searchsorted(tab.item, np.arange(len(tab.items)))  # each item's first impulse
     # the pulse spectrum depends on omega * duration only
-    spectrum = half_sine_spectrum(w[None, :] * tab.duration[row][:, None], 1.0)
+    spectrum = half_sine_spectrum(w[None, :] * tab.duration[:, None], 1.0)
     g = np.einsum("hc,hcn->hn", n_dir, phi)[tab.item] * tab.impulse[:, None] \
         * spectrum[tab.item]
     coupled = [k for k, h in enumerate(tab.items)
@@ -479,7 +478,7 @@ def render(body: SoundingBody, hits: Sequence[Hit], length_s: float,
         g = g.astype(complex)
         for k in coupled:
             q0, v0, _ = tab.items[k].modal_state
-            g[row[k]] = ringing_gains(q0[keep], v0[keep], wd, d)
+            g[tab.start[k]] = ringing_gains(q0[keep], v0[keep], wd, d)  # its one impulse
     T = 1.0 / sample_rate
     z = np.exp((-d + 1j * wd) * T)
     modal_sum(z, R / wd, tab.sample, g, n_out, out=out)
