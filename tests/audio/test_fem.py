@@ -134,17 +134,17 @@ def test_a_model_loaded_again_reads_its_shapes_from_the_cache_file(tmp_path):
     box = trimesh.creation.box((0.08, 0.012, 0.006))
     s = ModalSettings(target_voxels=600, n_modes=10)
     ref = modal_model(box.vertices, box.faces, NU, s, tmp_path)
-    mapped = modal_model(box.vertices, box.faces, NU, s, tmp_path, mapped=True)
+    stored = modal_model(box.vertices, box.faces, NU, s, tmp_path, stored=True)
     for name in ("omega", "points", "area"):
-        assert np.array_equal(getattr(mapped, name), getattr(ref, name)), name
-    assert isinstance(mapped.shapes, StoredArray) and mapped.shapes.shape == ref.shapes.shape
-    assert np.array_equal(np.asarray(mapped.shapes), ref.shapes)
+        assert np.array_equal(getattr(stored, name), getattr(ref, name)), name
+    assert isinstance(stored.shapes, StoredArray) and stored.shapes.shape == ref.shapes.shape
+    assert np.array_equal(np.asarray(stored.shapes), ref.shapes)
     rows = np.array([[0, 7], [len(ref.shapes) - 1, -2]])
-    assert np.array_equal(mapped.shapes[rows], ref.shapes[rows])
-    assert np.array_equal(mapped.shapes[3], ref.shapes[3]) and mapped.shapes[3].shape == (3, 10)
-    assert np.array_equal(mapped.phi(5), ref.phi(5))
+    assert np.array_equal(stored.shapes[rows], ref.shapes[rows])
+    assert np.array_equal(stored.shapes[3], ref.shapes[3]) and stored.shapes[3].shape == (3, 10)
+    assert np.array_equal(stored.phi(5), ref.phi(5))
     with pytest.raises(IndexError):
-        mapped.shapes[len(ref.shapes)]
+        stored.shapes[len(ref.shapes)]
     # an entry whose shapes lack their last 400 bytes (the zip itself sound)
     f = next(tmp_path.glob("*.npz"))
     with zipfile.ZipFile(f) as z:
@@ -153,7 +153,7 @@ def test_a_model_loaded_again_reads_its_shapes_from_the_cache_file(tmp_path):
     with zipfile.ZipFile(f, "w") as z:
         for name, data in members.items():
             z.writestr(name, data)
-    again = modal_model(box.vertices, box.faces, NU, s, tmp_path, mapped=True)
+    again = modal_model(box.vertices, box.faces, NU, s, tmp_path, stored=True)
     assert np.array_equal(again.shapes, ref.shapes)
     with zipfile.ZipFile(f) as z:  # recomputed and cached whole again
         assert len(z.read("shapes.npy")) == len(members["shapes.npy"]) + 400

@@ -254,7 +254,7 @@ class FallRenderer:
         # its shapes left in the cache file (a render reads the rows of a few nodes)
         again = key in self._moments
         model = self._models[key] = modal_model(v, f, nu, self.s.modal, self.s.cache_dir, shell,
-                                                mapped=again)
+                                                stored=again)
         if again:
             object.__setattr__(model, "moments", self._moments[key])
         else:

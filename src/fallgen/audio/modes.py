@@ -132,14 +132,14 @@ def _save(path: Path, m: ModalModel) -> None:
     write_bytes(path, buf.getvalue())
 
 
-def _load(path: Path, mapped: bool = False) -> ModalModel:
-    """A cached model; ``mapped``: its mode shapes (nine tenths of it) left in the file as a
+def _load(path: Path, stored: bool = False) -> ModalModel:
+    """A cached model; ``stored``: its mode shapes (nine tenths of it) left in the file as a
     :class:`StoredArray`, read where they are indexed (a render reads a few surface nodes'
     rows), not held in memory, and not checked against the file's CRC (a full load checks
     every array)."""
     with np.load(path) as z:
         nu, h, nvox, err = z["meta"]
-        shapes = _stored(path, z.zip, "shapes.npy") if mapped else z["shapes"]
+        shapes = _stored(path, z.zip, "shapes.npy") if stored else z["shapes"]
         return ModalModel(z["omega"], z["points"], z["area"], shapes, float(nu), float(h),
                           int(nvox), float(err))
 
@@ -237,16 +237,16 @@ def shell_model(shell: ThinShell, nu: float, settings: ModalSettings = ModalSett
 def modal_model(vertices: np.ndarray, faces: np.ndarray, nu: float,
                 settings: ModalSettings = ModalSettings(),
                 cache_dir: Path | None = None, shell: ThinShell | None = None,
-                mapped: bool = False) -> ModalModel:
+                stored: bool = False) -> ModalModel:
     """The shape's reference modal model: from its thin ``shell`` when it has one, else from
-    the cache (``mapped``: its mode shapes left in the file, see :func:`_load`) or solved
+    the cache (``stored``: its mode shapes left in the file, see :func:`_load`) or solved
     by voxel FEM (and cached)."""
     if shell is not None:
         return shell_model(shell, nu, settings)
     path = cache_path(vertices, faces, nu, settings, cache_dir)
     if path.exists():
         try:
-            return _load(path, mapped)
+            return _load(path, stored)
         except CORRUPT_ENTRY:
             path.unlink(missing_ok=True)  # a corrupt cache entry is recomputed
     m = solve_shape(vertices, faces, round_nu(nu), settings)
