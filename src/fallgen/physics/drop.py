@@ -89,6 +89,23 @@ def _fits(world: World, zone: Zone, cid: str) -> bool:
     return True
 
 
+@dataclass(frozen=True)
+class ZoneFits:
+    """The categories that fit a zone (:func:`_fits`): the targets, in the library's order,
+    and each target's distractors (the similar-sized targets that fit, or the target itself).
+    The same for every trial of the zone: :func:`zone_fits` once, then :func:`run_trial`."""
+
+    targets: tuple[str, ...]
+    distractors: dict[str, tuple[str, ...]]
+
+
+def zone_fits(world: World, zone: Zone) -> ZoneFits:
+    lib = world.categories
+    targets = tuple(c for c in lib.ids("target") if _fits(world, zone, c))
+    return ZoneFits(targets, {c: tuple(d for d in lib.distractors_for(c)
+                                       if _fits(world, zone, d)) or (c,) for c in targets})
+
+
 def _xy(rng: np.random.Generator, zone: Zone, margin: float) -> tuple[float, float]:
     hx, hy = (max(zone.drop.half[i] - margin, 0.0) for i in (0, 1))
     lx, ly = rng.uniform(-hx, hx), rng.uniform(-hy, hy)
@@ -109,13 +126,13 @@ def _occluders(world: World, zone: Zone, rng: np.random.Generator) -> list[Place
     return out
 
 
-def _draw_distractors(world: World, zone: Zone, target_cid: str, rng: np.random.Generator
-                      ) -> list[PlacedObject]:
-    """The zone's distractors, drawn (objects and start poses above the zone, stacked)."""
+def _draw_distractors(world: World, zone: Zone, cands: tuple[str, ...],
+                      rng: np.random.Generator) -> list[PlacedObject]:
+    """The zone's distractors, drawn from ``cands`` (objects and start poses above the zone,
+    stacked)."""
     if zone.distractors == 0:
         return []
     lib = world.categories
-    cands = [c for c in lib.distractors_for(target_cid) if _fits(world, zone, c)] or [target_cid]
     objs = []
     for k in range(zone.distractors):
         inst = lib.sample(rng, cands[int(rng.integers(len(cands)))])
@@ -229,17 +246,20 @@ def _below_for_good(m: mujoco.MjModel, body: int, floor_z: float) -> EnergyFloor
 
 
 def run_trial(world: World, variant: RoomVariant, zone: Zone, trial: int,
-              cfg: RehearseConfig, root_seed: int) -> TrialOutcome:
-    """Run one seeded trial; the outcome says whether it was kept, and why not."""
+              cfg: RehearseConfig, root_seed: int, fits: ZoneFits | None = None
+              ) -> TrialOutcome:
+    """Run one seeded trial; the outcome says whether it was kept, and why not. ``fits``:
+    :func:`zone_fits` of ``zone``, made once for many trials (else made here)."""
     rng = trial_rng(root_seed, variant.id, zone.index, trial)
     lib = world.categories
-    cands = [c for c in lib.ids("target") if _fits(world, zone, c)]
+    fits = fits or zone_fits(world, zone)
+    cands = fits.targets
     if not cands:
         return TrialOutcome("does_not_fit", None, "")
     cid = cands[int(rng.integers(len(cands)))]
     target = lib.sample(rng, cid)
     occluders = _occluders(world, zone, rng)
-    drawn = _draw_distractors(world, zone, cid, rng)
+    drawn = _draw_distractors(world, zone, fits.distractors[cid], rng)
     r = _radius(target)
     x, y = _xy(rng, zone, r)
     # high enough to fall min_fall_m onto the zone's support

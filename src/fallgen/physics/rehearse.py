@@ -31,7 +31,7 @@ from fallgen.atomic import write_bytes, write_text
 from fallgen.config import BuildConfig
 from fallgen.dataset import integrity
 from fallgen.errors import InputError
-from fallgen.physics.drop import REASONS, run_trial
+from fallgen.physics.drop import REASONS, run_trial, zone_fits
 from fallgen.physics.events import FallEvent, from_table, to_table
 from fallgen.pipeline.executor import ProcessUsage, parallel_map, process_usage, select_units
 from fallgen.world.library import World, load_world
@@ -84,8 +84,9 @@ def rehearse_variant(world: World, variant_id: str, cfg: BuildConfig
         if not fnmatch.fnmatchcase(zone.id, r.zones):
             continue
         kept = 0
+        fits = zone_fits(world, zone)
         for trial in range(r.max_trials_per_zone):
-            out = run_trial(world, variant, zone, trial, r, cfg.root_seed)
+            out = run_trial(world, variant, zone, trial, r, cfg.root_seed, fits)
             stats.add(zone.kind, out.category, out.reason)
             if out.event is not None:
                 events.append(out.event)
