@@ -323,9 +323,8 @@ class Sight:
         if len(ns) == 0:
             return np.zeros(len(tilts_rad), bool)
         scale = size / 2 / math.tan(math.radians(fov_deg) / 2)
-        return np.array([_count_pixels(xs, ys, ns, *self.frame, yaw_rad, t, size, scale,
-                                       SLACK_PX, enough) >= enough for t in tilts_rad.tolist()],
-                        bool)
+        return _enough_pixels(xs, ys, ns, *self.frame, yaw_rad, tilts_rad, size, scale,
+                              SLACK_PX, enough)
 
 
 def near_distance(model: mujoco.MjModel) -> float:
@@ -398,6 +397,16 @@ def hidden_from(x, y, z, kernel):
     w, p, q = gnomonic_frame(eye, corners)
     return _leftover(tris, normals, lo, hi, spheres, owner, behind, sverts, sstart, slo, shi,
                      ssph, planes, nplanes, eye, corners, points, near, w, p, q)[3] == 0
+
+
+@njit(cache=True)
+def _enough_pixels(xs, ys, ns, w, p, q, yaw, tilts, size, scale, slack, enough):
+    """For each of ``tilts``, whether :func:`_count_pixels` reaches ``enough``."""
+    out = np.empty(len(tilts), np.bool_)
+    for k in range(len(tilts)):
+        out[k] = _count_pixels(xs, ys, ns, w, p, q, yaw, tilts[k], size, scale, slack,
+                               enough) >= enough
+    return out
 
 
 @njit(cache=True)
