@@ -164,6 +164,21 @@ def test_spinning_fork_does_not_diverge(world):
     assert out.reason != "unstable"
 
 
+def test_a_trial_given_its_zones_fits_is_the_trial_made_without(world):
+    """The categories that fit a zone, found once for its trials (as the rehearsal does),
+    make the same trials as found by each trial: the same draws, outcome and event."""
+    from fallgen.physics.drop import run_trial, zone_fits
+
+    v = world.variant("kitchen_island-l1-m1")
+    cfg = RehearseConfig(drop_height_m=(1.5, 2.8), events_per_zone=8, max_trials_per_zone=60)
+    for zone in v.zones[:3]:
+        fits = zone_fits(world, zone)
+        assert fits.targets and all(fits.distractors[c] for c in fits.targets)
+        for trial in range(2):
+            assert run_trial(world, v, zone, trial, cfg, 2022, fits) == \
+                run_trial(world, v, zone, trial, cfg, 2022)
+
+
 def test_a_trial_below_its_zone_for_good_is_stopped(world):
     """A trial is stopped early only when the object cannot climb back to the zone: resting
     below it, yes; moving up fast enough, or spinning with enough energy, no."""

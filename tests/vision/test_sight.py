@@ -248,6 +248,11 @@ def test_no_view_shows_more_pixels_than_the_bound(world, zone_scene):
                 sight, bad = occ.look(eye), wrong.look(eye)
                 face = round(math.degrees(math.atan2(pos[1] - y, pos[0] - x)) / 30)
                 for h in {face % 12, (face + 1) % 12}:
+                    # the tilts judged together, as the expert asks: each as on its own
+                    tilts = np.radians(np.arange(-60, 61, 30))
+                    yaw = Pose(x, y, h).yaw_rad
+                    assert sight.may_show(yaw, tilts, 300, 90.0, 4).tolist() == [
+                        sight.max_pixels(yaw, float(t), 300, 90.0, 4) >= 4 for t in tilts]
                     for t in range(-60, 61, 30):
                         p = Pose(x, y, h, t)
                         yaw, tilt = p.yaw_rad, math.radians(t)
