@@ -52,8 +52,9 @@ def main() -> None:
     t0 = time.perf_counter()
     outcomes = []
     for z in variant.zones:
+        fits = drop.zone_fits(world, z)  # once per zone, as the rehearsal finds them
         for t in range(args.trials_per_zone):
-            o = drop.run_trial(world, variant, z, t, cfg, 1)
+            o = drop.run_trial(world, variant, z, t, cfg, 1, fits)
             if o.event is not None:
                 drops[-1][4] = True
             outcomes.append(o)

@@ -252,7 +252,8 @@ def run_trial(world: World, variant: RoomVariant, zone: Zone, trial: int,
     :func:`zone_fits` of ``zone``, made once for many trials (else made here)."""
     rng = trial_rng(root_seed, variant.id, zone.index, trial)
     lib = world.categories
-    fits = fits or zone_fits(world, zone)
+    if fits is None:
+        fits = zone_fits(world, zone)
     cands = fits.targets
     if not cands:
         return TrialOutcome("does_not_fit", None, "")
