@@ -278,3 +278,26 @@ def test_an_episode_whose_event_is_given_up_takes_its_shards_spares_first(tmp_pa
     assert by_episode[1][8:] == [own[2], own[3]]
     assert by_episode[2] == [own[2], own[3], own[0], own[1]]
     assert all(len(t) == len(set(t)) for t in by_episode)
+
+
+def test_shards_are_made_one_room_kind_after_the_other(tiny_build, world, tmp_path,
+                                                       monkeypatch):
+    """The plan lists each split's kinds in turn; a build makes all of one kind's shards
+    before the other's (a worker keeps its rooms only for the kind it is on), each kind's in
+    the plan's order."""
+    from fallgen.config import load_config
+    from fallgen.pipeline import generate as G
+
+    base, cfg_file = tiny_build
+    cfg, root = load_config(cfg_file), tmp_path / "ds"
+    shutil.copytree(base / "one" / "rehearsal", root / "rehearsal")
+    made = []
+    monkeypatch.setattr(G, "compile_ahead", lambda *a, **k: False)
+    monkeypatch.setattr(G, "_make_job", lambda world, maker, cfg, job, *a: made.append(job)
+                        or G.ShardResult(job.name, 0))
+    G.generate(world, cfg, root, workers=1)
+    planned = G.build_plan(cfg, root, world).jobs
+    kinds = [j.room_kind for j in planned]
+    assert kinds != sorted(kinds) and len(set(kinds)) == 2  # interleaved in the plan
+    assert [j.room_kind for j in made] == sorted(kinds)
+    assert made == sorted(planned, key=lambda j: j.room_kind)  # stable within a kind

@@ -517,6 +517,10 @@ def generate(world: World, cfg: BuildConfig, out: Path | None = None, workers: i
             integrity.remove_temporaries(out, [j.name for j in jobs])
         states = shard_states(out, b, jobs)
         todo = [j for j in jobs if force or not states[j.name].ok]
+        # one room kind's shards after the other: a worker keeps what it makes per room
+        # variant only for the kind of the shard it is on (see EpisodeMaker.retain_rooms),
+        # so each change of kind makes that kind's rooms again (~0.12 s a variant)
+        todo.sort(key=lambda j: j.room_kind)
         why = {j.name: ("--force" if states[j.name].ok else
                         f"{states[j.name].status}: {states[j.name].reason}") for j in todo
                if states[j.name].status != "missing"}
