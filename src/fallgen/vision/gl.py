@@ -29,12 +29,20 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from fallgen.vision.contexts import FONT_SCALE, TextureNames, context_inputs, make_over
+
 #: The auxiliary buffer of a MuJoCo context that a reused shadow map's depth pass draws into.
 SHADOW_SINK_AUX = 0
 
 
 class GLContext:
-    """An offscreen OpenGL context (``MUJOCO_GL``: egl or osmesa) of ``size`` x ``size``."""
+    """An offscreen OpenGL context (``MUJOCO_GL``: egl or osmesa) of ``size`` x ``size``.
+
+    It also keeps one MuJoCo render context to lend to the scenes drawn in it one after
+    another (:meth:`lend`), made over for each (:func:`fallgen.vision.contexts.make_over`):
+    on a CPU renderer a render context cost 12-25 ms to make between the episodes of a build,
+    most of it allocating and filling buffers, textures and display lists that are the same
+    for every scene."""
 
     def __init__(self, size: int) -> None:
         from mujoco.rendering.classic.gl_context import GLContext as _Context
@@ -42,14 +50,64 @@ class GLContext:
         self.size = size
         self._ctx = _Context(size, size)
         self._ctx.make_current()
+        self._kept: mujoco.MjrContext | None = None  # the render context to lend
+        self._kept_inputs: bytes | None = None  # its context_inputs
+        self._lent = False
+        self._textures = TextureNames()  # every texture uploaded in this GL context
 
     def make_current(self) -> None:
         self._ctx.make_current()
 
+    def lend(self, model: mujoco.MjModel) -> mujoco.MjrContext:
+        """A render context for ``model`` that draws what ``mujoco.MjrContext(model,
+        FONT_SCALE)`` draws: the kept one made over for it when their
+        :func:`~fallgen.vision.contexts.context_inputs` are the same, else a new one (kept
+        from then on). Hand it back with :meth:`give_back` (one scene at a time; a second
+        scene asking before the first gave it back gets a context of its own)."""
+        self.make_current()
+        inputs = context_inputs(model)
+        if inputs is None or self._lent:
+            return mujoco.MjrContext(model, FONT_SCALE)
+        if self._kept is not None and self._kept_inputs == inputs:
+            make_over(self._kept, model, self._textures)
+        else:
+            self._free_kept()
+            self._kept = mujoco.MjrContext(model, FONT_SCALE)
+            self._kept_inputs = inputs
+            self._textures.adopt(self._kept, model)
+        self._lent = True
+        return self._kept
+
+    def give_back(self, con: mujoco.MjrContext) -> None:
+        """End a scene's use of ``con`` from :meth:`lend` (one not kept here is freed)."""
+        if con is self._kept:
+            self._lent = False
+        else:
+            self.make_current()
+            con.free()
+
+    def _free_kept(self) -> None:
+        if self._kept is not None:
+            self.make_current()
+            self._kept.ntexture = 0  # its texture names are the GL context's (TextureNames)
+            self._kept.free()
+            self._kept, self._kept_inputs, self._lent = None, None, False
+
     def close(self) -> None:
         if self._ctx is not None:
+            self._free_kept()
+            self.make_current()
+            self._textures.clear()
             self._ctx.free()
             self._ctx = None
+
+    def __del__(self) -> None:
+        # the kept render context and textures are freed in this GL context, not in whatever
+        # context is current when the garbage collector gets to them (another camera's)
+        try:
+            self.close()
+        except Exception:  # interpreter shutdown: GL may be gone
+            pass
 
 
 class SceneFrames:
@@ -57,8 +115,7 @@ class SceneFrames:
 
     def __init__(self, model: mujoco.MjModel, context: GLContext, max_geom: int) -> None:
         self.model, self.context, self.size = model, context, context.size
-        context.make_current()
-        self._con = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_150.value)
+        self._con: mujoco.MjrContext | None = context.lend(model)
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._con)
         self._con.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
         self._scene = mujoco.MjvScene(model=model, maxgeom=max_geom)
@@ -100,8 +157,7 @@ class SceneFrames:
 
     def close(self) -> None:
         if self._con is not None:
-            self.context.make_current()
-            self._con.free()
+            self.context.give_back(self._con)
             self._con = None
 
     def __del__(self) -> None:
@@ -184,11 +240,15 @@ class SceneFrames:
 
     def _shadow_sink(self) -> int:
         """A 1 x 1 framebuffer (an auxiliary buffer of the MuJoCo context) for the depth pass
-        of a draw that reuses the map: its fragments all fall outside it."""
+        of a draw that reuses the map: its fragments all fall outside it (a lent context
+        keeps the one an earlier scene made)."""
         if self._sink is None:
-            mujoco.mjr_addAux(SHADOW_SINK_AUX, 1, 1, 0, self._con)
-            mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._con)
-            self._sink = int(self._con.auxFBO[SHADOW_SINK_AUX])
+            con, aux = self._con, SHADOW_SINK_AUX
+            if not (con.auxFBO[aux] and con.auxWidth[aux] == 1 and con.auxHeight[aux] == 1
+                    and con.auxSamples[aux] == 0):
+                mujoco.mjr_addAux(aux, 1, 1, 0, con)
+                mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, con)
+            self._sink = int(con.auxFBO[aux])
         return self._sink
 
     def _outside(self, data: mujoco.MjData, camera: mujoco.MjvCamera,
