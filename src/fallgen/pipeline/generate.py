@@ -167,6 +167,15 @@ class ShardJob:
         return shard_name(self.split, self.index, self.count)
 
 
+def making_order(jobs: list[ShardJob]) -> list[ShardJob]:
+    """The order a build makes ``jobs`` in: one room kind's shards after the other's, each
+    kind's in the plan's order. A worker keeps what it makes per room variant only for the
+    kind of the shard it is on (:meth:`EpisodeMaker.retain_rooms`), so each change of kind
+    makes that kind's rooms again (~0.12 s a variant); the plan lists each split's kinds in
+    turn."""
+    return sorted(jobs, key=lambda j: j.room_kind)
+
+
 def shard_jobs(planned: list[PlannedEpisode], per_shard: int,
                spares: dict[tuple[str, str], list[str]] | None = None) -> list[ShardJob]:
     """Each split's episodes in shards of ``per_shard``, one room kind per shard (so the
@@ -516,11 +525,7 @@ def generate(world: World, cfg: BuildConfig, out: Path | None = None, workers: i
         else:
             integrity.remove_temporaries(out, [j.name for j in jobs])
         states = shard_states(out, b, jobs)
-        todo = [j for j in jobs if force or not states[j.name].ok]
-        # one room kind's shards after the other: a worker keeps what it makes per room
-        # variant only for the kind of the shard it is on (see EpisodeMaker.retain_rooms),
-        # so each change of kind makes that kind's rooms again (~0.12 s a variant)
-        todo.sort(key=lambda j: j.room_kind)
+        todo = making_order([j for j in jobs if force or not states[j.name].ok])
         why = {j.name: ("--force" if states[j.name].ok else
                         f"{states[j.name].status}: {states[j.name].reason}") for j in todo
                if states[j.name].status != "missing"}
@@ -565,6 +570,7 @@ def generate(world: World, cfg: BuildConfig, out: Path | None = None, workers: i
     return results
 
 
-__all__ = ["generate", "shard_jobs", "make_shard", "load_events", "event_refs", "job_event_ids",
+__all__ = ["generate", "shard_jobs", "making_order", "make_shard", "load_events", "event_refs",
+           "job_event_ids",
            "finalize_build", "missing_shards", "build_plan", "verified_rehearsal",
            "shard_states"]
