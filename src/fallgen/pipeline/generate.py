@@ -571,6 +571,5 @@ def generate(world: World, cfg: BuildConfig, out: Path | None = None, workers: i
 
 
 __all__ = ["generate", "shard_jobs", "making_order", "make_shard", "load_events", "event_refs",
-           "job_event_ids",
-           "finalize_build", "missing_shards", "build_plan", "verified_rehearsal",
-           "shard_states"]
+           "job_event_ids", "finalize_build", "missing_shards", "build_plan",
+           "verified_rehearsal", "shard_states"]

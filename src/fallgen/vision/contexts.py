@@ -96,12 +96,12 @@ class TextureNames:
         for i in range(model.ntex):
             key, data = self._content(model, i)
             name = self._find(key, data)
-            if name is None:
-                name = int(np.atleast_1d(GL.glGenTextures(1))[0])
+            if name is not None:
                 con.texture[i] = name
-                mujoco.mjr_uploadTexture(model, con, i)
-                self._add(key, data, name)
-            con.texture[i] = name
+                continue
+            con.texture[i] = name = int(np.atleast_1d(GL.glGenTextures(1))[0])
+            mujoco.mjr_uploadTexture(model, con, i)  # into the name just made
+            self._add(key, data, name)
 
     def clear(self) -> None:
         """Delete every name held (in the current GL context, the one they were made in)."""
